@@ -1,0 +1,20 @@
+"""brdffit: fit analytic BRDF models to measured reflectance, with uncertainties."""
+
+from .errors import BrdfFitError, DataError, FitError, FormatError, ModelError, ParameterError
+from .geometry import Geometry
+from .models import REGISTRY, get_model, list_models
+
+__all__ = [
+    "REGISTRY",
+    "get_model",
+    "list_models",
+    "Geometry",
+    "BrdfFitError",
+    "DataError",
+    "FitError",
+    "FormatError",
+    "ModelError",
+    "ParameterError",
+]
+
+__version__ = "0.1.0"

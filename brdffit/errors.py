@@ -1,0 +1,46 @@
+"""The errors brdffit raises for bad input.
+
+Every error is a :class:`BrdfFitError` (a ``ValueError``) whose message is a
+sentence saying what is wrong and what is needed. ``field`` names the input that
+is wrong (a parameter, a column, an option) so that the command line and the
+HTTP service can point at it without parsing the message.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "BrdfFitError",
+    "ModelError",
+    "ParameterError",
+    "DataError",
+    "FormatError",
+    "FitError",
+]
+
+
+class BrdfFitError(ValueError):
+    """Base of every error caused by input that brdffit cannot use."""
+
+    def __init__(self, message: str, field: str | None = None):
+        super().__init__(message)
+        self.field = field
+
+
+class ModelError(BrdfFitError):
+    """An unknown model name or a malformed sum of lobes."""
+
+
+class ParameterError(BrdfFitError):
+    """A model parameter that is unknown, missing, not finite or out of bounds."""
+
+
+class DataError(BrdfFitError):
+    """Directions or values that are malformed (shape, NaN, range, length)."""
+
+
+class FormatError(BrdfFitError):
+    """A file that cannot be read; the message names the file and the place."""
+
+
+class FitError(BrdfFitError):
+    """Options or data that a fit or a posterior run cannot work with."""

@@ -1,0 +1,205 @@
+"""Direction pairs, checked once and prepared once.
+
+A fit evaluates a model thousands of times on the same directions. Everything
+that depends on the directions only (cosines, the half vector and its azimuth,
+the mirror direction) is computed here, lazily and at most once per
+:class:`Geometry`, so that each evaluation does only the parameter-dependent
+arithmetic. Models may also cache their own parameter-free terms (shadowing,
+for instance) with :meth:`Geometry.cached`.
+
+Conventions are those of MODELS.md: normal ``N = (0, 0, 1)``, tangent
+``T = (1, 0, 0)``, bitangent ``B = (0, 1, 0)``, ``wi = L`` towards the light and
+``wo = V`` towards the viewer, both pointing away from the surface.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+from typing import Callable
+
+import numpy as np
+
+from .errors import DataError
+
+__all__ = ["Geometry", "check_directions", "directions_from_angles", "angles_from_directions"]
+
+#: Cosines are clamped at this value in the derived quantities (not in the
+#: validity test), so that models that diverge at the horizon (Ward's
+#: 1/sqrt(N.L N.V), the 1/(4 N.L N.V) of microfacet models) stay finite for
+#: every direction above it. It is 5.7e-9 degrees above the horizon.
+MIN_COSINE = 1e-10
+
+#: Directions must have unit length within this tolerance.
+UNIT_TOLERANCE = 1e-6
+
+
+def check_directions(wi, wo) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``wi`` and ``wo`` as float arrays of shape (N, 3), or raise DataError."""
+    arrays = []
+    for name, w in (("wi", wi), ("wo", wo)):
+        try:
+            a = np.asarray(w, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise DataError(f"{name} must be an array of numbers of shape (N, 3): {exc}", name)
+        if a.ndim == 1 and a.shape == (3,):
+            a = a[None, :]
+        if a.ndim != 2 or a.shape[1] != 3:
+            raise DataError(f"{name} has shape {a.shape}; it must be (N, 3) unit vectors", name)
+        bad = ~np.isfinite(a).all(axis=1)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise DataError(
+                f"{name}[{i}] = {a[i].tolist()} is not finite; "
+                f"{int(bad.sum())} direction(s) contain NaN or inf",
+                name,
+            )
+        norm = np.linalg.norm(a, axis=1)
+        off = np.abs(norm - 1.0) > UNIT_TOLERANCE
+        if off.any():
+            i = int(np.flatnonzero(off)[0])
+            raise DataError(
+                f"{name}[{i}] has length {norm[i]:.9g}; directions must be unit vectors "
+                f"(length 1 within {UNIT_TOLERANCE})",
+                name,
+            )
+        arrays.append(a)
+    if arrays[0].shape[0] != arrays[1].shape[0]:
+        raise DataError(
+            f"wi has {arrays[0].shape[0]} directions but wo has {arrays[1].shape[0]}; "
+            "they must pair up one to one",
+            "wo",
+        )
+    return arrays[0], arrays[1]
+
+
+def directions_from_angles(theta, phi, degrees: bool = True) -> np.ndarray:
+    """Unit vectors ``(sin t cos p, sin t sin p, cos t)`` of shape (N, 3)."""
+    theta = np.asarray(theta, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    if degrees:
+        theta, phi = np.radians(theta), np.radians(phi)
+    st = np.sin(theta)
+    return np.stack([st * np.cos(phi), st * np.sin(phi), np.cos(theta)], axis=-1)
+
+
+def angles_from_directions(w: np.ndarray, degrees: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Polar and azimuth angles of unit vectors; azimuth in [0, 360) degrees."""
+    w = np.asarray(w, dtype=float)
+    theta = np.arccos(np.clip(w[..., 2], -1.0, 1.0))
+    phi = np.mod(np.arctan2(w[..., 1], w[..., 0]), 2 * np.pi)
+    if degrees:
+        return np.degrees(theta), np.degrees(phi)
+    return theta, phi
+
+
+class Geometry:
+    """A set of direction pairs with their parameter-free quantities.
+
+    Only pairs with both directions strictly above the horizon are kept for
+    evaluation (``valid``); every model is zero elsewhere, and :meth:`scatter`
+    puts values computed on the valid pairs back into arrays of length ``n``.
+
+    Parameters
+    ----------
+    wi, wo : array_like, shape (N, 3)
+        Unit directions towards the light and the viewer, in the local frame.
+    check : bool
+        Validate shapes, finiteness and unit length (default). Internal callers
+        that built the directions themselves may skip it.
+    """
+
+    def __init__(self, wi, wo, check: bool = True):
+        if check:
+            wi, wo = check_directions(wi, wo)
+        else:
+            wi, wo = np.asarray(wi, dtype=float), np.asarray(wo, dtype=float)
+        self.n = wi.shape[0]
+        valid = (wi[:, 2] > 0.0) & (wo[:, 2] > 0.0)
+        self.all_valid = bool(valid.all())
+        self.valid = valid
+        self.wi = wi if self.all_valid else wi[valid]
+        self.wo = wo if self.all_valid else wo[valid]
+        self.m = self.wi.shape[0]
+        self._cache: dict = {}
+
+    def cached(self, key, compute: Callable[[], np.ndarray]):
+        """Return ``compute()``, computed once per geometry and key."""
+        try:
+            return self._cache[key]
+        except KeyError:
+            value = self._cache[key] = compute()
+            return value
+
+    def scatter(self, values: np.ndarray) -> np.ndarray:
+        """Place values of the valid pairs (M,) or (M, C) into zeros of length N."""
+        if self.all_valid:
+            return values
+        out = np.zeros((self.n,) + values.shape[1:], dtype=values.dtype)
+        out[self.valid] = values
+        return out
+
+    # Cosines with the normal, clamped away from zero (see MIN_COSINE).
+    @cached_property
+    def cos_i(self) -> np.ndarray:
+        return np.maximum(self.wi[:, 2], MIN_COSINE)
+
+    @cached_property
+    def cos_o(self) -> np.ndarray:
+        return np.maximum(self.wo[:, 2], MIN_COSINE)
+
+    @cached_property
+    def half(self) -> np.ndarray:
+        """Unit half vector H = (L + V) / |L + V|, shape (M, 3)."""
+        h = self.wi + self.wo
+        norm = np.linalg.norm(h, axis=1)
+        return h / np.maximum(norm, 1e-300)[:, None]
+
+    @cached_property
+    def cos_h(self) -> np.ndarray:
+        """N.H, clamped away from zero."""
+        return np.clip(self.half[:, 2], MIN_COSINE, 1.0)
+
+    @cached_property
+    def cos_d(self) -> np.ndarray:
+        """V.H (= L.H), the cosine that enters Fresnel."""
+        return np.clip(np.einsum("ij,ij->i", self.wo, self.half), 0.0, 1.0)
+
+    @cached_property
+    def sin2_h(self) -> np.ndarray:
+        """sin^2(theta_h), from the tangential part of H (accurate near H = N)."""
+        h = self.half
+        return np.minimum(h[:, 0] ** 2 + h[:, 1] ** 2, 1.0)
+
+    @cached_property
+    def tan2_h(self) -> np.ndarray:
+        return self.sin2_h / self.cos_h**2
+
+    @cached_property
+    def theta_h(self) -> np.ndarray:
+        return np.arctan2(np.sqrt(self.sin2_h), self.cos_h)
+
+    @cached_property
+    def log_cos_h(self) -> np.ndarray:
+        """ln(N.H), for power lobes evaluated as exp(n ln c)."""
+        return np.log(self.cos_h)
+
+    @cached_property
+    def cos2_phi_h(self) -> np.ndarray:
+        """cos^2 of the azimuth of H; 1/2 where H = N (the azimuth is undefined there
+        and every lobe that uses it is independent of it)."""
+        h = self.half
+        s2 = h[:, 0] ** 2 + h[:, 1] ** 2
+        out = np.full(self.m, 0.5)
+        ok = s2 > 1e-300
+        out[ok] = h[ok, 0] ** 2 / s2[ok]
+        return out
+
+    @cached_property
+    def sin2_phi_h(self) -> np.ndarray:
+        return 1.0 - self.cos2_phi_h
+
+    @cached_property
+    def cos_r(self) -> np.ndarray:
+        """R.V with R = 2 (N.L) N - L, the mirror direction of L (Phong's operand)."""
+        dot = np.einsum("ij,ij->i", self.wi, self.wo)
+        return np.clip(2.0 * self.wi[:, 2] * self.wo[:, 2] - dot, -1.0, 1.0)

@@ -1,0 +1,55 @@
+"""The registry of reflectance models: a plain mapping built from explicit imports."""
+
+from __future__ import annotations
+
+import difflib
+
+from ..errors import ModelError
+from . import anisotropic, empirical, microfacet
+from .base import Classification, Design, Model, Param
+
+__all__ = ["REGISTRY", "get_model", "list_models", "Model", "Param", "Classification", "Design"]
+
+REGISTRY: dict[str, Model] = {
+    m.name: m for m in (*empirical.MODELS, *microfacet.MODELS, *anisotropic.MODELS)
+}
+
+_AXES = ("origin", "symmetry", "operand", "highlight", "wave_optics")
+
+
+def get_model(name) -> Model:
+    """The registered model called ``name``; an unknown name lists close matches."""
+    if isinstance(name, Model):
+        return name
+    if not isinstance(name, str):
+        raise ModelError(f"a model name must be a string, not {type(name).__name__}", "model")
+    try:
+        return REGISTRY[name]
+    except KeyError:
+        close = difflib.get_close_matches(name, REGISTRY, n=3, cutoff=0.5)
+        hint = f"; did you mean {', '.join(close)}?" if close else ""
+        raise ModelError(
+            f"unknown model {name!r}{hint} Known models: {', '.join(sorted(REGISTRY))}",
+            "model",
+        ) from None
+
+
+def list_models(**filters) -> list[Model]:
+    """Registered models whose classification matches every filter given.
+
+    Filters are the classification axes: ``origin`` (empirical, physical),
+    ``symmetry`` (isotropic, anisotropic), ``operand`` (cosine, angle),
+    ``highlight`` (light, material), ``wave_optics`` (bool).
+    """
+    for axis in filters:
+        if axis not in _AXES:
+            raise ModelError(
+                f"cannot filter on {axis!r}; the classification axes are {', '.join(_AXES)}",
+                axis,
+            )
+    out = []
+    for model in REGISTRY.values():
+        cls = model.classification.to_dict()
+        if all(cls[axis] == value for axis, value in filters.items()):
+            out.append(model)
+    return out
