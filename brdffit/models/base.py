@@ -46,6 +46,9 @@ class Param:
 
     ``log_scale`` parameters (spanning decades) are searched in log space;
     ``linear`` ones are solved for, per colour channel, rather than searched.
+    ``per_channel`` ones are not linear but take one value per channel (the
+    wavelength of each band in a wave-optics model); a fit takes them from the
+    data rather than searching them.
     """
 
     name: str
@@ -56,6 +59,7 @@ class Param:
     linear: bool = False
     unit: str = ""
     doc: str = ""
+    per_channel: bool = False
 
     def __post_init__(self):
         if not (self.lower <= self.default <= self.upper):
@@ -69,8 +73,9 @@ class Param:
             arr = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
             raise ParameterError(f"{self.name}={value!r} is not a number", self.name)
-        if arr.ndim > 1 or (arr.ndim == 1 and not self.linear):
-            need = "a number or one number per channel" if self.linear else "a single number"
+        several = self.linear or self.per_channel
+        if arr.ndim > 1 or (arr.ndim == 1 and not several):
+            need = "a number or one number per channel" if several else "a single number"
             raise ParameterError(
                 f"{self.name} has shape {arr.shape}; it must be {need}", self.name
             )
@@ -96,6 +101,7 @@ class Param:
             "linear": self.linear,
             "unit": self.unit,
             "doc": self.doc,
+            "per_channel": self.per_channel,
         }
 
 
@@ -132,8 +138,10 @@ class Classification:
 class Design(NamedTuple):
     """Columns scaled by the linear coefficients, and the part no coefficient scales.
 
-    Each column is an array of shape (M,) over the valid pairs of a geometry, or
-    a Python float for a constant column (such as Lambert's 1/pi).
+    Each column is an array of shape (M,) over the valid pairs of a geometry, an
+    array of shape (M, C) when it differs per channel (wavelength-dependent
+    models), or a Python float for a constant column (such as Lambert's 1/pi).
+    The offset is (M,), (M, C) or None.
     """
 
     columns: tuple
@@ -228,12 +236,13 @@ class Model:
                 f"{self.name} needs a value for {', '.join(missing)}", missing[0]
             )
         checked = {p.name: p.check(params[p.name]) for p in self.params}
-        sizes = {np.size(checked[p.name]) for p in self.linear_params} - {1}
+        several = [p for p in self.params if p.linear or p.per_channel]
+        sizes = {np.size(checked[p.name]) for p in several} - {1}
         if len(sizes) > 1:
             raise ParameterError(
-                "per-channel linear parameters must all have the same length, got "
-                + ", ".join(f"{p.name}: {np.size(checked[p.name])}" for p in self.linear_params),
-                self.linear_params[0].name,
+                "per-channel parameters must all have the same length, got "
+                + ", ".join(f"{p.name}: {np.size(checked[p.name])}" for p in several),
+                several[0].name,
             )
         return checked
 
@@ -264,6 +273,12 @@ class Model:
             return list(self.to_coefficients(params))
         return [params[name] for name in self.coefficients]
 
+    def params_from_coefficients(self, coefs: Mapping) -> dict:
+        """Linear parameter values from solved coefficients (name -> value)."""
+        if self.from_coefficients is not None:
+            return dict(self.from_coefficients(coefs))
+        return {name: coefs[name] for name in self.coefficients}
+
     def to_dict(self) -> dict:
         return {
             "name": self.name,
@@ -280,15 +295,16 @@ class Model:
 
 def combine(design: Design, coefs: Sequence, m: int) -> np.ndarray:
     """offset + sum_j c_j column_j, with c_j scalars or per-channel arrays."""
-    per_channel = any(np.ndim(c) == 1 for c in coefs)
+    two_d = [np.shape(a)[1] for a in (*design.columns, design.offset) if np.ndim(a) == 2]
+    per_channel = bool(two_d) or any(np.ndim(c) == 1 for c in coefs)
     if per_channel:
-        n_ch = max(np.size(c) for c in coefs)
+        n_ch = max([np.size(c) for c in coefs] + two_d)
         out = np.zeros((m, n_ch))
         if design.offset is not None:
-            out += design.offset[:, None]
+            out += design.offset if np.ndim(design.offset) == 2 else design.offset[:, None]
         for col, c in zip(design.columns, coefs):
             c = np.broadcast_to(np.asarray(c, dtype=float), (n_ch,))
-            out += np.multiply.outer(col, c) if np.ndim(col) else col * c
+            out += col * c if np.ndim(col) != 1 else np.multiply.outer(col, c)
         return out
     out = None
     constant = 0.0

@@ -1,0 +1,132 @@
+"""Sums of lobes as models: ``lambert+cook_torrance+cook_torrance``.
+
+Measured materials are often fitted by a diffuse term plus two specular lobes
+(a sharp one and a broad one). A sum of registered models is itself a model:
+its design concatenates the components' columns and adds their offsets, so the
+fitting engine needs nothing special for it.
+
+Naming. Each parameter is ``<component>.<param>``, where ``<component>`` is the
+model name, suffixed ``_1``, ``_2``... when a model occurs more than once:
+``lambert.kd``, ``cook_torrance_1.ks``, ``cook_torrance_1.m``,
+``cook_torrance_2.ks``...
+
+Diffuse terms. Several Lambertian terms (the ``kd / pi`` of each component)
+are the same column, so their ``kd`` could not be told apart: only the first
+component's constant column is kept, and the constant-column parameters of the
+later components are removed from the sum (held at 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Mapping
+
+import numpy as np
+
+from .errors import ModelError
+from .geometry import Geometry
+from .models.base import Classification, Design, Model
+
+__all__ = ["sum_of_lobes", "component_labels"]
+
+
+def component_labels(names: list[str]) -> list[str]:
+    """``[a, b, b]`` -> ``[a, b_1, b_2]``."""
+    counts = {n: names.count(n) for n in names}
+    seen: dict[str, int] = {}
+    labels = []
+    for n in names:
+        if counts[n] == 1:
+            labels.append(n)
+        else:
+            seen[n] = seen.get(n, 0) + 1
+            labels.append(f"{n}_{seen[n]}")
+    return labels
+
+
+def _constant_columns(model: Model) -> set[str]:
+    """Coefficients whose column is a constant (a Lambertian term)."""
+    probe = Geometry(np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]), check=False)
+    shape = {p.name: p.default for p in model.shape_params}
+    design = model.design(probe, shape)
+    return {name for name, col in zip(model.coefficients, design.columns) if np.ndim(col) == 0}
+
+
+def _combined_classification(models) -> Classification:
+    cls = [m.classification for m in models]
+    return Classification(
+        origin="physical" if all(c.origin == "physical" for c in cls) else "empirical",
+        symmetry="anisotropic" if any(c.symmetry == "anisotropic" for c in cls) else "isotropic",
+        operand="angle" if any(c.operand == "angle" for c in cls) else "cosine",
+        highlight="material" if any(c.highlight == "material" for c in cls) else "light",
+        wave_optics=any(c.wave_optics for c in cls),
+    )
+
+
+def sum_of_lobes(models: list[Model]) -> Model:
+    """A model that is the sum of ``models`` (see the module docstring)."""
+    if len(models) < 2:
+        raise ModelError("a sum of lobes needs at least two models", "model")
+    labels = component_labels([m.name for m in models])
+    dropped: list[set[str]] = []
+    have_constant = False
+    for model in models:
+        const = _constant_columns(model)
+        drop = set(const) if have_constant else set()
+        have_constant = have_constant or bool(const)
+        if drop and model.to_coefficients is not None:
+            raise ModelError(f"{model.name} cannot be summed after another diffuse term", "model")
+        dropped.append(drop)
+    linear, shape, coefficients = [], [], []
+    for model, label, drop in zip(models, labels, dropped):
+        for p in model.params:
+            if p.name in drop:
+                continue
+            (linear if p.linear else shape).append(replace(p, name=f"{label}.{p.name}"))
+        coefficients += [f"{label}.{c}" for c in model.coefficients if c not in drop]
+
+    def split(values: Mapping, i: int) -> dict:
+        prefix = labels[i] + "."
+        sub = {k[len(prefix):]: v for k, v in values.items() if k.startswith(prefix)}
+        sub.update({name: 0.0 for name in dropped[i]})
+        return sub
+
+    def design(geometry: Geometry, shape_values: Mapping) -> Design:
+        columns, offset = [], None
+        for i, model in enumerate(models):
+            d = model.design(geometry, split(shape_values, i))
+            columns += [c for c, n in zip(d.columns, model.coefficients) if n not in dropped[i]]
+            if d.offset is not None:
+                offset = d.offset if offset is None else offset + d.offset
+        return Design(tuple(columns), offset)
+
+    def to_coefficients(values: Mapping) -> list:
+        out = []
+        for i, model in enumerate(models):
+            coefs = model.coefficient_values(split(values, i))
+            out += [c for c, n in zip(coefs, model.coefficients) if n not in dropped[i]]
+        return out
+
+    def from_coefficients(coefs: Mapping) -> dict:
+        out = {}
+        for i, model in enumerate(models):
+            sub = split(coefs, i)
+            params = model.params_from_coefficients(sub)
+            out.update({f"{labels[i]}.{k}": v for k, v in params.items() if k not in dropped[i]})
+        return out
+
+    doc = "Sum of lobes: " + " + ".join(
+        f"{label} ({m.name}: {m.doc.strip().splitlines()[0]})" for label, m in zip(labels, models)
+    )
+    return Model(
+        name="+".join(m.name for m in models),
+        params=tuple(linear + shape),
+        classification=_combined_classification(models),
+        reference="; ".join(dict.fromkeys(m.reference for m in models)),
+        design=design,
+        doc=doc,
+        coefficients=tuple(coefficients),
+        to_coefficients=to_coefficients,
+        from_coefficients=from_coefficients,
+        reciprocal=all(m.reciprocal for m in models),
+    )

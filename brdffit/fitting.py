@@ -1,0 +1,348 @@
+"""The fitting engine: global search on nlopt, then a local polish.
+
+``fit(data, model)`` estimates the parameters of any registered model (or sum
+of lobes) from measurements. The optimiser searches only the free shape
+parameters (log10 space for log-scale ones); the linear coefficients are solved
+at every step (:class:`~brdffit.problem.Problem`). The strategy:
+
+1. a global nlopt algorithm over the whole box of the shape parameters
+   (default ``GN_DIRECT_L``, chosen by the comparison in
+   ``benchmarks/bench_fit_algorithms.py``);
+2. a local polish (default ``LN_BOBYQA``) from the best global point, from the
+   user's ``start`` if given, and from ``restarts`` further distinct good points
+   of the global stage; the best polished point wins.
+
+The objective never returns NaN (nlopt hangs on NaN with some algorithms), a
+fit never outlives its ``timeout``, and a fit that did not converge says so.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Callable, Mapping
+
+import nlopt
+import numpy as np
+
+from .errors import FitError
+from .losses import LossContext
+from .problem import Problem
+from .result import FitResult, metrics_of
+
+__all__ = ["fit", "FitProgress", "DEFAULT_GLOBAL", "DEFAULT_LOCAL"]
+
+DEFAULT_GLOBAL = "GN_DIRECT_L"
+DEFAULT_LOCAL = "LN_BOBYQA"
+_CONVERGED = {nlopt.SUCCESS, nlopt.STOPVAL_REACHED, nlopt.FTOL_REACHED, nlopt.XTOL_REACHED}
+_REASONS = {
+    nlopt.SUCCESS: "success",
+    nlopt.STOPVAL_REACHED: "objective reached its stop value",
+    nlopt.FTOL_REACHED: "relative change of the loss below tolerance",
+    nlopt.XTOL_REACHED: "relative change of the parameters below tolerance",
+    nlopt.MAXEVAL_REACHED: "evaluation budget used up",
+    nlopt.MAXTIME_REACHED: "time limit reached",
+    nlopt.ROUNDOFF_LIMITED: "stopped by round-off",
+    nlopt.FORCED_STOP: "stopped",
+}
+
+
+@dataclass(frozen=True)
+class FitProgress:
+    """What a ``progress`` callback receives."""
+
+    stage: str
+    n_evals: int
+    max_evals: int
+    best_loss: float
+    seconds: float
+
+
+class _Stop(Exception):
+    pass
+
+
+class _Search:
+    """The objective handed to nlopt: counts, keeps the best, obeys budget and deadline."""
+
+    def __init__(self, problem: Problem, max_evals: int, deadline: float, progress):
+        self.problem = problem
+        self.max_evals = max_evals
+        self.deadline = deadline
+        self.progress = progress
+        self.n_evals = 0
+        self.best = None
+        self.history: list[tuple[float, np.ndarray]] = []
+        self.stage = ""
+        self.t0 = time.perf_counter()
+        self.stopped = ""
+        self.opt = None
+
+    def __call__(self, x, grad=None):
+        if self.n_evals >= self.max_evals or time.perf_counter() > self.deadline:
+            self.stopped = "evaluation budget used up" if self.n_evals >= self.max_evals else "timeout"
+            self.opt.force_stop()
+            return self.best.loss if self.best is not None else 1e300
+        self.n_evals += 1
+        sol = self.problem.solve(np.asarray(x, dtype=float))
+        self.history.append((sol.loss, np.array(x, dtype=float)))
+        if self.best is None or sol.loss < self.best.loss:
+            self.best = sol
+            self.best_x = np.array(x, dtype=float)
+        if self.progress is not None and self.n_evals % 25 == 0:
+            self.report()
+        return sol.loss
+
+    def report(self):
+        if self.progress is not None and self.best is not None:
+            self.progress(
+                FitProgress(self.stage, self.n_evals, self.max_evals, self.best.loss,
+                            time.perf_counter() - self.t0)
+            )
+
+    def run(self, algorithm: str, x0, budget: int, stage: str) -> int | None:
+        """Run one nlopt stage; return nlopt's result code (None if it raised)."""
+        p = self.problem
+        remaining = min(budget, self.max_evals - self.n_evals)
+        if remaining <= 0 or time.perf_counter() > self.deadline:
+            return None
+        self.stage = stage
+        opt = nlopt.opt(getattr(nlopt, algorithm), p.dim)
+        self.opt = opt
+        opt.set_lower_bounds(p.lower)
+        opt.set_upper_bounds(p.upper)
+        opt.set_min_objective(self)
+        opt.set_maxeval(int(remaining))
+        opt.set_maxtime(max(self.deadline - time.perf_counter(), 1e-3))
+        if algorithm.startswith("G"):
+            if algorithm.startswith(("GN_MLSL", "G_MLSL", "GD_MLSL")):
+                local = nlopt.opt(nlopt.LN_BOBYQA, p.dim)
+                local.set_xtol_rel(1e-4)
+                opt.set_local_optimizer(local)
+            opt.set_population(0)
+        else:
+            opt.set_xtol_rel(1e-7)
+            opt.set_ftol_rel(1e-12)
+            opt.set_initial_step(0.05 * (p.upper - p.lower))
+        try:
+            opt.optimize(np.clip(np.asarray(x0, dtype=float), p.lower, p.upper))
+            code = opt.last_optimize_result()
+        except (nlopt.ForcedStop, nlopt.RoundoffLimited, RuntimeError, ValueError):
+            code = opt.last_optimize_result()
+        self.report()
+        return code
+
+
+def _algorithm(name, field: str, prefix: tuple) -> str | None:
+    if name is None or name == "none":
+        return None
+    if not isinstance(name, str) or not hasattr(nlopt, name) or not name.startswith(prefix):
+        kinds = "global (GN_...)" if prefix[0].startswith("G") else "local derivative-free (LN_...)"
+        raise FitError(f"{field}={name!r} is not an nlopt {kinds} algorithm name", field)
+    return name
+
+
+def _positive_int(value, field: str, default: int) -> int:
+    if value is None:
+        return default
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
+        raise FitError(f"{field}={value!r} must be a positive whole number", field)
+    return int(value)
+
+
+def _distinct_starts(search: _Search, count: int, exclude: list) -> list:
+    """Up to ``count`` good points of the history, each at least 0.1 of the box away
+    (in the search space) from every point already chosen."""
+    p = search.problem
+    width = np.where(p.upper > p.lower, p.upper - p.lower, 1.0)
+    chosen = list(exclude)
+    out = []
+    for loss, x in sorted(search.history, key=lambda t: t[0]):
+        if len(out) >= count:
+            break
+        if all(np.max(np.abs((x - c) / width)) > 0.1 for c in chosen):
+            chosen.append(x)
+            out.append(x)
+    return out
+
+
+def fit(
+    data,
+    model,
+    *,
+    loss: str = "l2",
+    weights=None,
+    fixed: Mapping | None = None,
+    start: Mapping | None = None,
+    global_algorithm: str | None = DEFAULT_GLOBAL,
+    local_algorithm: str = DEFAULT_LOCAL,
+    global_evals: int | None = None,
+    local_evals: int | None = None,
+    restarts: int = 2,
+    max_evals: int | None = None,
+    timeout: float | None = None,
+    seed: int = 0,
+    energy_conserving: bool = False,
+    progress: Callable[[FitProgress], None] | None = None,
+    uncertainty: bool = False,
+    posterior_options: Mapping | None = None,
+) -> FitResult:
+    """Fit ``model`` to ``data``.
+
+    Parameters
+    ----------
+    data : Measurements
+    model : str or Model
+        A registered name, a sum of lobes (``"lambert+cook_torrance+cook_torrance"``)
+        or a Model.
+    loss : str
+        ``l2``, ``cosine``, ``log``, ``cbrt``, ``relative`` or ``chi2``
+        (:mod:`brdffit.losses`).
+    weights : array_like (N,), optional
+        Per-sample weights.
+    fixed : mapping, optional
+        Parameters held at given values.
+    start : mapping, optional
+        An initial guess of shape parameters; polished locally besides the global stage.
+    global_algorithm, local_algorithm : str
+        nlopt algorithm names; ``global_algorithm=None`` skips the global stage.
+    global_evals, local_evals : int, optional
+        Budgets of the stages (defaults grow with the number of shape params).
+    restarts : int
+        Further local polishes from distinct good points of the global stage.
+    max_evals : int, optional
+        Cap on all objective evaluations.
+    timeout : float, optional
+        Seconds; the fit returns its best point when it is reached.
+    seed : int
+        Seeds nlopt's stochastic algorithms; the same seed gives the same result.
+    energy_conserving : bool
+        Constrain the directional albedo to at most 1 at every incidence angle.
+    progress : callable, optional
+        Called with a :class:`FitProgress` now and then.
+    uncertainty : bool
+        Also sample the posterior (:func:`brdffit.sample_posterior`) with
+        ``posterior_options``; the result's ``posterior`` holds it.
+    """
+    t0 = time.perf_counter()
+    problem = Problem(data, model, loss=loss, weights=weights, fixed=fixed)
+    d = problem.dim
+    global_algorithm = _algorithm(global_algorithm, "global_algorithm", ("GN_", "G_MLSL", "GD_"))
+    local_algorithm = _algorithm(local_algorithm, "local_algorithm", ("LN_",))
+    if local_algorithm is None:
+        raise FitError("local_algorithm is needed: the polish is what converges", "local_algorithm")
+    global_evals = _positive_int(global_evals, "global_evals", 60 + 60 * d)
+    local_evals = _positive_int(local_evals, "local_evals", 100 + 100 * d)
+    max_evals = _positive_int(max_evals, "max_evals", 10**9)
+    if isinstance(restarts, bool) or not isinstance(restarts, (int, np.integer)) or restarts < 0:
+        raise FitError(f"restarts={restarts!r} must be a whole number >= 0", "restarts")
+    if timeout is not None and (not isinstance(timeout, (int, float)) or not timeout > 0):
+        raise FitError(f"timeout={timeout!r} must be a positive number of seconds", "timeout")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise FitError(f"seed={seed!r} must be a whole number", "seed")
+    if progress is not None and not callable(progress):
+        raise FitError("progress must be a callable taking a FitProgress", "progress")
+    x_start = problem.x_from_params({**_shape_defaults(problem), **(start or {})}) if d else None
+    if start:
+        unknown = [k for k in start if k not in {p.name for p in problem.free_shape}]
+        if unknown:
+            raise FitError(
+                f"start gives {unknown[0]!r}, which is not a free shape parameter of "
+                f"{problem.model.name} ({', '.join(p.name for p in problem.free_shape)})",
+                "start",
+            )
+    deadline = t0 + timeout if timeout is not None else float("inf")
+    search = _Search(problem, max_evals, deadline, progress)
+    nlopt.srand(int(seed))
+    code = _optimise(search, problem, x_start, bool(start), global_algorithm, local_algorithm,
+                     global_evals, local_evals, restarts)
+    if energy_conserving:
+        from .energy import constrain_energy
+
+        code = constrain_energy(search, problem, local_evals)
+    result = _result(problem, search, code, time.perf_counter() - t0, locals())
+    if uncertainty:
+        from .posterior import sample_posterior
+
+        post = sample_posterior(data, result, **dict(posterior_options or {}))
+        result = replace(result, posterior=post)
+    return result
+
+
+def _shape_defaults(problem: Problem) -> dict:
+    return {p.name: p.default for p in problem.free_shape}
+
+
+def _optimise(search, problem, x_start, have_start, global_algorithm, local_algorithm,
+              global_evals, local_evals, restarts):
+    """Global stage, then polishes; returns the nlopt code of the winning polish."""
+    if problem.dim == 0:
+        search.n_evals += 1
+        search.best = problem.solve(np.zeros(0))
+        search.best_x = np.zeros(0)
+        return nlopt.SUCCESS
+    if global_algorithm is not None:
+        search.run(global_algorithm, x_start, global_evals, "global")
+    starts = []
+    if have_start or global_algorithm is None:
+        starts.append(x_start)
+    if search.best is not None:
+        starts.append(search.best_x.copy())
+    starts += _distinct_starts(search, restarts, starts)
+    winner = None
+    for i, x0 in enumerate(starts):
+        before = search.best.loss if search.best is not None else np.inf
+        code = search.run(local_algorithm, x0, local_evals, f"local {i + 1}/{len(starts)}")
+        if code is None:
+            break
+        # The code that counts is that of the polish which found the best point.
+        if winner is None or search.best.loss < before:
+            winner = code
+    return winner
+
+
+def _at_bounds(problem: Problem, x: np.ndarray) -> tuple:
+    out = []
+    for p, v, lo, hi in zip(problem.free_shape, x, problem.lower, problem.upper):
+        tol = 1e-6 * max(hi - lo, 1e-12)
+        if v <= lo + tol or v >= hi - tol:
+            out.append(p.name)
+    return tuple(out)
+
+
+def _result(problem: Problem, search: _Search, code, seconds: float, options: dict) -> FitResult:
+    if search.best is None:
+        raise FitError("the fit stopped before its first evaluation (timeout or max_evals)", "timeout")
+    params = problem.params_of(search.best)
+    pred = problem.predict(params)
+    data = problem.data
+    ctx = LossContext(cos_i=np.maximum(data.wi[:, 2], 0.0), y=np.asarray(data.values),
+                      sigma=data.sigma, weights=None)
+    n_params = problem.dim + len(problem.free_coefs) * problem.n_channels
+    converged = code in _CONVERGED and search.best.loss < 1e300 and not search.stopped
+    reason = search.stopped or _REASONS.get(code, f"nlopt result {code}")
+    at_bounds = _at_bounds(problem, search.best_x) if problem.dim else ()
+    message = ("converged: " if converged else "not converged: ") + reason
+    if at_bounds:
+        message += "; at a bound of its range: " + ", ".join(at_bounds)
+    keep = ("loss", "global_algorithm", "local_algorithm", "global_evals", "local_evals",
+            "restarts", "max_evals", "timeout", "seed", "energy_conserving")
+    return FitResult(
+        model=problem.model.name,
+        params=params,
+        loss=search.best.loss,
+        loss_name=problem.loss.name,
+        metrics=metrics_of(pred, ctx.y, ctx, n_params),
+        n_samples=data.n,
+        n_channels=problem.n_channels,
+        n_values=int(ctx.y.size),
+        n_params=n_params,
+        n_evals=search.n_evals,
+        seconds=seconds,
+        converged=bool(converged),
+        message=message,
+        channels=tuple(data.channels),
+        fixed=dict(problem.fixed),
+        options={k: options[k] for k in keep},
+        at_bounds=at_bounds,
+    )

@@ -1,0 +1,178 @@
+"""Loss functions of BRDF fitting, as a named registry.
+
+Every loss compares the model ``f`` with the data ``y`` through a transform
+``t`` applied to both:
+
+    loss = (1 / norm) * sum_m sum_c w_m (t(f_mc) - t(y_mc))^2
+
+where ``w_m`` are the user's sample weights (scaled to mean 1) and ``norm`` is
+the number of values ``M * C`` (a mean), except for ``chi2``, which is a sum.
+
+| name | transform t(f) | source |
+| --- | --- | --- |
+| ``l2`` | ``f`` | plain least squares |
+| ``cosine`` | ``f cos(theta_i)`` | Löw et al. 2012, "BRDF models for accurate and efficient rendering of glossy surfaces", ACM TOG 31(1), error E1 |
+| ``log`` | ``ln(1 + f cos(theta_i))`` | Löw et al. 2012, error E2 |
+| ``cbrt`` | ``(f cos(theta_i))^(1/3)`` | Forés, Ferwerda and Gu 2012, "Toward a perceptually based metric for BRDF modeling", IS&T CIC 20 (the cube-root metric) |
+| ``relative`` | ``f / max(abs(y), eps)`` | relative error; ``eps`` = 1e-3 of the largest ``abs(y)`` of the channel guards zeros |
+| ``chi2`` | ``f / sigma`` | chi-square with the data's per-sample sigma (needs sigma) |
+
+The fitting engine solves the linear coefficients by weighted least squares
+in the Gauss-Newton linearisation of ``t`` (exact in one step for the losses
+whose transform is linear in ``f``: l2, cosine, relative, chi2; iterated for
+log and cbrt), and always reports the exact loss.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from .errors import FitError
+
+__all__ = ["Loss", "LOSSES", "get_loss", "LossContext"]
+
+
+@dataclass(frozen=True)
+class LossContext:
+    """What the transforms need besides the values: cos(theta_i) (M,), the data's
+    sigma (M, C) or None, the target y (M, C) and the per-channel scale of y."""
+
+    cos_i: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray | None
+    weights: np.ndarray | None
+
+    @property
+    def y_scale(self) -> np.ndarray:
+        return np.maximum(np.abs(self.y).max(axis=0), 1e-300)
+
+
+@dataclass(frozen=True)
+class Loss:
+    """A named loss: transform t, its derivative dt, whether t is linear in f."""
+
+    name: str
+    transform: Callable[[np.ndarray, LossContext], np.ndarray]
+    derivative: Callable[[np.ndarray, LossContext], np.ndarray]
+    linear: bool
+    doc: str
+    reference: str
+    needs_sigma: bool = False
+    is_sum: bool = False
+
+    def value(self, pred: np.ndarray, ctx: LossContext) -> float:
+        """The exact loss of predictions ``pred`` (M, C) against ``ctx.y``."""
+        d = self.transform(pred, ctx) - self.transform(ctx.y, ctx)
+        d2 = d * d
+        if ctx.weights is not None:
+            d2 *= ctx.weights[:, None]
+        total = float(d2.sum())
+        return total if self.is_sum else total / d2.size
+
+    def norm(self, ctx: LossContext) -> float:
+        return 1.0 if self.is_sum else float(ctx.y.size)
+
+    def linearised(self, ref: np.ndarray, ctx: LossContext) -> tuple[np.ndarray, np.ndarray]:
+        """Weights (M, C) and targets (M, C) of the least-squares problem in f that
+        is the Gauss-Newton linearisation of this loss at the values ``ref``."""
+        dt = self.derivative(ref, ctx)
+        w = dt * dt
+        if ctx.weights is not None:
+            w = w * ctx.weights[:, None]
+        if self.linear:
+            return w, ctx.y
+        target = ref - (self.transform(ref, ctx) - self.transform(ctx.y, ctx)) / dt
+        return w, target
+
+
+def _cos(ctx: LossContext) -> np.ndarray:
+    return ctx.cos_i[:, None]
+
+
+def _log_arg(f, ctx):
+    return np.maximum(1.0 + f * _cos(ctx), 1e-12)
+
+
+def _cbrt_floor(ctx):
+    """|f cos| below this is treated as this in the derivative (1e-6 of the data scale)."""
+    return 1e-6 * np.maximum(np.abs(ctx.y * _cos(ctx)).max(axis=0), 1e-300)
+
+
+def _relative_scale(ctx):
+    return np.maximum(np.abs(ctx.y), 1e-3 * ctx.y_scale)
+
+
+def _sigma(ctx):
+    if ctx.sigma is None:
+        raise FitError("the chi2 loss needs per-sample sigma in the data", "loss")
+    return ctx.sigma
+
+
+LOSSES: dict[str, Loss] = {
+    loss.name: loss
+    for loss in (
+        Loss(
+            "l2",
+            lambda f, ctx: f,
+            lambda f, ctx: np.ones_like(f),
+            True,
+            "mean of (f - y)^2",
+            "least squares",
+        ),
+        Loss(
+            "cosine",
+            lambda f, ctx: f * _cos(ctx),
+            lambda f, ctx: np.broadcast_to(_cos(ctx), f.shape),
+            True,
+            "mean of ((f - y) cos(theta_i))^2",
+            "Löw, Kronander, Ynnerman and Unger 2012, ACM TOG 31(1), E1",
+        ),
+        Loss(
+            "log",
+            lambda f, ctx: np.log(_log_arg(f, ctx)),
+            lambda f, ctx: _cos(ctx) / _log_arg(f, ctx),
+            False,
+            "mean of (ln(1 + f cos(theta_i)) - ln(1 + y cos(theta_i)))^2",
+            "Löw, Kronander, Ynnerman and Unger 2012, ACM TOG 31(1), E2",
+        ),
+        Loss(
+            "cbrt",
+            lambda f, ctx: np.cbrt(f * _cos(ctx)),
+            lambda f, ctx: _cos(ctx)
+            / (3.0 * np.cbrt(np.maximum(np.abs(f * _cos(ctx)), _cbrt_floor(ctx))) ** 2),
+            False,
+            "mean of (cbrt(f cos(theta_i)) - cbrt(y cos(theta_i)))^2",
+            "Forés, Ferwerda and Gu 2012, IS&T Color and Imaging Conference 20, 142-148",
+        ),
+        Loss(
+            "relative",
+            lambda f, ctx: f / _relative_scale(ctx),
+            lambda f, ctx: 1.0 / _relative_scale(ctx) * np.ones_like(f),
+            True,
+            "mean of ((f - y) / max(|y|, 1e-3 max|y|))^2",
+            "relative least squares",
+        ),
+        Loss(
+            "chi2",
+            lambda f, ctx: f / _sigma(ctx),
+            lambda f, ctx: 1.0 / _sigma(ctx) * np.ones_like(f),
+            True,
+            "sum of ((f - y) / sigma)^2",
+            "chi-square with the data's sigma",
+            needs_sigma=True,
+            is_sum=True,
+        ),
+    )
+}
+
+
+def get_loss(name: str) -> Loss:
+    try:
+        return LOSSES[name]
+    except (KeyError, TypeError):
+        raise FitError(
+            f"loss={name!r} is not a known loss; choose one of {', '.join(LOSSES)}", "loss"
+        ) from None

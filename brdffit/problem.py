@@ -1,0 +1,295 @@
+"""A model bound to a dataset: the search space and the variable-projection objective.
+
+:class:`Problem` is what the fitting engine and the posterior sampler share.
+It holds the geometry of the data (prepared once), the search space of the
+free shape parameters (log10 for log-scale ones, bounds from the registry),
+and for any point of that space it solves the linear coefficients (kd, ks...
+per channel) by bounded least squares (:mod:`brdffit.linear`) and returns the
+exact loss. The optimiser therefore searches only the few shape parameters,
+shared by all channels.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from .errors import FitError, ParameterError
+from .linear import normal_equations, solve_bounded
+from .losses import LossContext, get_loss
+from .models import get_model
+
+__all__ = ["Problem", "Solution"]
+
+#: Gauss-Newton passes for losses whose transform is not linear (log, cbrt).
+NONLINEAR_PASSES = 3
+#: What the objective returns where the model is not finite: nlopt must never see NaN.
+BAD_LOSS = 1e300
+
+
+class Solution:
+    """The result of the objective at one point: shape, coefficients, prediction, loss."""
+
+    __slots__ = ("shape", "coefs", "pred", "loss")
+
+    def __init__(self, shape, coefs, pred, loss):
+        self.shape, self.coefs, self.pred, self.loss = shape, coefs, pred, loss
+
+
+class Problem:
+    """Bind a model to measurements for fitting.
+
+    Parameters
+    ----------
+    data : Measurements
+    model : str or Model
+    loss : str
+        A name of :data:`brdffit.losses.LOSSES`.
+    weights : array_like (N,), optional
+        Non-negative per-sample weights (scaled to mean 1).
+    fixed : mapping, optional
+        Parameters held at given values (linear ones may be per channel).
+    """
+
+    def __init__(self, data, model, loss: str = "l2", weights=None, fixed: Mapping | None = None):
+        self.data = data
+        self.model = get_model(model)
+        self.loss = get_loss(loss)
+        self.geometry = data.geometry()
+        self.n_channels = data.values.shape[1]
+        self.fixed = self._check_fixed(fixed or {})
+        self._set_per_channel()
+        self.free_shape = [
+            p for p in self.model.shape_params if p.name not in self.fixed and not p.per_channel
+        ]
+        self.lower = np.array([np.log10(p.lower) if p.log_scale else p.lower for p in self.free_shape])
+        self.upper = np.array([np.log10(p.upper) if p.log_scale else p.upper for p in self.free_shape])
+        self._set_coefficients()
+        self._set_targets(weights)
+        self._check_size()
+
+    # ----------------------------------------------------------- construction
+    def _check_fixed(self, fixed: Mapping) -> dict:
+        if not isinstance(fixed, Mapping):
+            raise FitError("fixed must be a mapping of parameter name to value", "fixed")
+        out = {}
+        for name, value in fixed.items():
+            param = self.model.param(name)
+            value = param.check(value)
+            if np.ndim(value) == 1 and np.size(value) not in (1, self.n_channels):
+                raise ParameterError(
+                    f"fixed {name} has {np.size(value)} values but the data have "
+                    f"{self.n_channels} channels",
+                    name,
+                )
+            out[name] = value
+        return out
+
+    def _set_per_channel(self):
+        """Per-channel non-linear params (wavelengths) come from the data unless fixed."""
+        for p in self.model.shape_params:
+            if not p.per_channel or p.name in self.fixed:
+                continue
+            wl = self.data.wavelengths()
+            if wl is None:
+                raise FitError(
+                    f"{self.model.name} needs {p.name} per channel: give channels named by "
+                    f"wavelength (such as 550nm) or fix {p.name}",
+                    p.name,
+                )
+            self.fixed[p.name] = p.check(np.asarray(wl, dtype=float))
+
+    def _set_coefficients(self):
+        names = list(self.model.coefficients)
+        fixed_linear = [p.name for p in self.model.linear_params if p.name in self.fixed]
+        if fixed_linear and self.model.to_coefficients is not None:
+            raise FitError(
+                f"{self.model.name} maps its linear parameters to coefficients; holding "
+                f"{', '.join(fixed_linear)} fixed is not supported for it",
+                fixed_linear[0],
+            )
+        self.fixed_coefs = [n for n in names if n in self.fixed]
+        self.free_coefs = [n for n in names if n not in self.fixed]
+        self.coef_index = [names.index(n) for n in self.free_coefs]
+        self.fixed_index = [names.index(n) for n in self.fixed_coefs]
+        lo, hi = [], []
+        for n in self.free_coefs:
+            p = self.model._index.get(n)
+            lo.append(max(p.lower, 0.0) if p is not None else 0.0)
+            hi.append(p.upper if p is not None else np.inf)
+        self.coef_lower, self.coef_upper = np.array(lo), np.array(hi)
+
+    def _set_targets(self, weights):
+        g = self.geometry
+        y_all = np.asarray(self.data.values, dtype=float)
+        sigma = self.data.sigma
+        if self.loss.needs_sigma and sigma is None:
+            raise FitError(f"loss={self.loss.name!r} needs per-sample sigma in the data", "loss")
+        w = None
+        if weights is not None:
+            w = np.asarray(weights, dtype=float)
+            if w.shape != (self.data.n,):
+                raise FitError(f"weights has shape {w.shape}; it must be ({self.data.n},)", "weights")
+            if not np.isfinite(w).all() or (w < 0).any() or not (w > 0).any():
+                raise FitError("weights must be finite, non-negative and not all zero", "weights")
+            w = w / w.mean()
+        valid = g.valid
+        self.y = y_all[valid] if not g.all_valid else y_all
+        self.invalid_y = None if g.all_valid else y_all[~valid]
+        self.ctx = LossContext(
+            cos_i=g.cos_i,
+            y=self.y,
+            sigma=None if sigma is None else (sigma if g.all_valid else sigma[valid]),
+            weights=None if w is None else (w if g.all_valid else w[valid]),
+        )
+        # Below the horizon every model is 0: those samples add a constant to the loss.
+        self.invalid_loss = 0.0
+        if self.invalid_y is not None and self.invalid_y.size:
+            self.invalid_loss = self._invalid_contribution(y_all, sigma, w, valid)
+        self.w_lin, self.z_lin = self.loss.linearised(self.y, self.ctx)
+
+    def _invalid_contribution(self, y_all, sigma, w, valid) -> float:
+        ctx = LossContext(
+            cos_i=np.maximum(self.data.wi[~valid, 2], 0.0),
+            y=y_all[~valid],
+            sigma=None if sigma is None else sigma[~valid],
+            weights=None if w is None else w[~valid],
+        )
+        total = self.loss.value(np.zeros_like(ctx.y), ctx) * self.loss.norm(ctx)
+        return total
+
+    def _check_size(self):
+        n_free = len(self.free_coefs) + len(self.free_shape)
+        if self.geometry.m <= n_free:
+            raise FitError(
+                f"the data have {self.geometry.m} samples above the horizon but "
+                f"{self.model.name} has {n_free} free parameters per channel; "
+                "it needs more samples than parameters",
+                "data",
+            )
+
+    # ----------------------------------------------------------------- search
+    @property
+    def dim(self) -> int:
+        return len(self.free_shape)
+
+    @property
+    def norm(self) -> float:
+        return 1.0 if self.loss.is_sum else float(self.data.values.size)
+
+    def x_from_params(self, params: Mapping) -> np.ndarray:
+        out = []
+        for p in self.free_shape:
+            v = p.check(params[p.name])
+            out.append(np.log10(v) if p.log_scale else v)
+        return np.array(out)
+
+    def shape_from_x(self, x) -> dict:
+        shape = {}
+        for p, v in zip(self.free_shape, x):
+            v = 10.0 ** v if p.log_scale else float(v)
+            shape[p.name] = float(np.clip(v, p.lower, p.upper))
+        for p in self.model.shape_params:
+            if p.name in self.fixed:
+                shape[p.name] = self.fixed[p.name]
+        return shape
+
+    def default_x(self) -> np.ndarray:
+        return self.x_from_params({p.name: p.default for p in self.free_shape})
+
+    # -------------------------------------------------------------- objective
+    def solve(self, x) -> Solution:
+        """Shape params from ``x``, coefficients by least squares, the exact loss."""
+        shape = self.shape_from_x(x)
+        design = self.model.design(self.geometry, shape)
+        m, c = self.y.shape
+        cols = [_full(col, m) for col in design.columns]
+        offset = np.zeros((m, 1)) if design.offset is None else _as_2d(design.offset)
+        for i, name in zip(self.fixed_index, self.fixed_coefs):
+            offset = offset + _as_2d(cols[i]) * np.asarray(self.fixed[name], dtype=float)
+        a = _stack([cols[i] for i in self.coef_index], m, c)
+        if self.loss.linear:
+            # For quadratic losses the weighted residual sum of squares of the
+            # linear solve is the loss: no prediction needs to be formed.
+            coefs, rss = self._least_squares(a, offset, self.w_lin, self.z_lin)
+            loss = (float(rss.sum()) + self.invalid_loss) / self.norm
+            pred = None
+        else:
+            w, z = self.w_lin, self.z_lin
+            for _ in range(NONLINEAR_PASSES):
+                coefs, _ = self._least_squares(a, offset, w, z)
+                pred = _predict(a, offset, coefs, m, c)
+                w, z = self.loss.linearised(pred, self.ctx)
+            loss = self.loss.value(pred, self.ctx) * self.loss.norm(self.ctx)
+            loss = (loss + self.invalid_loss) / self.norm
+        if not np.isfinite(loss):
+            loss = BAD_LOSS
+        return Solution(shape, coefs, pred, loss)
+
+    def _least_squares(self, a, offset, w, z):
+        m, c = z.shape
+        target = z - offset
+        if a is None:
+            wt = np.ones_like(target) if w is None else np.broadcast_to(_as_2d(w), target.shape)
+            return np.zeros((c, 0)), np.einsum("mc,mc,mc->c", wt, target, target)
+        normal = normal_equations(a, target, w)
+        return solve_bounded(normal, self.coef_lower, self.coef_upper)
+
+    def prediction(self, sol: Solution) -> np.ndarray:
+        """Model values (M, C) on the valid samples for a solution."""
+        if sol.pred is not None:
+            return sol.pred
+        return self.predict(self.params_of(sol))[self.geometry.valid]
+
+    def objective(self, x) -> float:
+        return self.solve(x).loss
+
+    # ---------------------------------------------------------------- results
+    def params_of(self, sol: Solution) -> dict:
+        """Full parameter mapping (shape, per-channel linear values) of a solution."""
+        coefs = {}
+        for j, name in enumerate(self.free_coefs):
+            coefs[name] = _squeeze(sol.coefs[:, j])
+        for name in self.fixed_coefs:
+            coefs[name] = self.fixed[name]
+        params = dict(sol.shape)
+        params.update(self.model.params_from_coefficients(coefs))
+        for name, value in self.fixed.items():
+            params.setdefault(name, value)
+        return {p.name: params[p.name] for p in self.model.params}
+
+    def predict(self, params: Mapping) -> np.ndarray:
+        """Model values (N, C) at the data's directions for full params."""
+        values = self.model.evaluate_prepared(self.geometry, params)
+        values = np.asarray(values)
+        if values.ndim == 1:
+            values = np.repeat(values[:, None], self.n_channels, axis=1)
+        return values
+
+
+def _predict(a, offset, coefs, m, c):
+    if a is None:
+        return np.broadcast_to(offset, (m, c)).copy()
+    pred = np.einsum("mkc,ck->mc", a, coefs) if a.ndim == 3 else a @ coefs.T
+    return pred + offset
+
+
+def _full(col, m: int):
+    return np.full(m, float(col)) if np.ndim(col) == 0 else col
+
+
+def _as_2d(a):
+    return a if np.ndim(a) == 2 else np.asarray(a)[:, None]
+
+
+def _stack(cols, m, c):
+    if not cols:
+        return None
+    if any(np.ndim(col) == 2 for col in cols):
+        return np.stack([np.broadcast_to(_as_2d(col), (m, c)) for col in cols], axis=1)
+    return np.stack(cols, axis=1)
+
+
+def _squeeze(v: np.ndarray):
+    return float(v[0]) if v.size == 1 else np.asarray(v, dtype=float)

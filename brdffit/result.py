@@ -1,0 +1,158 @@
+"""FitResult: the frozen answer of a fit, with every metric and a JSON form."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import numpy as np
+
+from .losses import LOSSES, LossContext
+
+__all__ = ["FitResult", "metrics_of"]
+
+
+def _jsonable(value):
+    if isinstance(value, np.ndarray):
+        return [float(v) for v in value.ravel()]
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, Mapping):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """The result of :func:`brdffit.fit`.
+
+    Attributes
+    ----------
+    model : str
+        Name of the fitted model (a sum of lobes is ``a+b+c``).
+    params : mapping
+        Name -> float, or a per-channel array for linear params.
+    loss : float
+        The value of the minimised loss.
+    loss_name : str
+    metrics : mapping
+        Every named loss of :data:`brdffit.losses.LOSSES` at the fitted params
+        (``chi2`` only when the data give sigma), ``rmse``, ``aic``, ``bic``.
+    n_samples, n_channels, n_values : int
+        Samples, channels, and their product (the observations).
+    n_params : int
+        Fitted parameters: free shape params + free linear coefficients x channels.
+    n_evals : int
+        Objective evaluations (global + local).
+    seconds : float
+    converged : bool
+        The local polish ended on its tolerance (not on a budget, a timeout or an error).
+    message : str
+        What happened, in words (why it stopped; parameters at a bound).
+    channels : tuple of str
+    fixed : mapping
+        Parameters held fixed.
+    options : mapping
+        The options of the fit (loss, algorithms, budgets, seed...), for reproducing it.
+    at_bounds : tuple of str
+        Shape parameters that ended at a bound of their range.
+    """
+
+    model: str
+    params: Mapping[str, Any]
+    loss: float
+    loss_name: str
+    metrics: Mapping[str, float]
+    n_samples: int
+    n_channels: int
+    n_values: int
+    n_params: int
+    n_evals: int
+    seconds: float
+    converged: bool
+    message: str
+    channels: tuple
+    fixed: Mapping[str, Any] = field(default_factory=dict)
+    options: Mapping[str, Any] = field(default_factory=dict)
+    at_bounds: tuple = ()
+    posterior: Any = None
+
+    def __post_init__(self):
+        for name in ("params", "metrics", "fixed", "options"):
+            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
+
+    @property
+    def is_valid(self) -> bool:
+        """Converged, with a finite loss."""
+        return self.converged and math.isfinite(self.loss)
+
+    def to_dict(self) -> dict:
+        out = {
+            "model": self.model,
+            "params": _jsonable(dict(self.params)),
+            "loss": _jsonable(self.loss),
+            "loss_name": self.loss_name,
+            "metrics": _jsonable(dict(self.metrics)),
+            "n_samples": self.n_samples,
+            "n_channels": self.n_channels,
+            "n_values": self.n_values,
+            "n_params": self.n_params,
+            "n_evals": self.n_evals,
+            "seconds": self.seconds,
+            "converged": self.converged,
+            "message": self.message,
+            "channels": list(self.channels),
+            "fixed": _jsonable(dict(self.fixed)),
+            "options": _jsonable(dict(self.options)),
+            "at_bounds": list(self.at_bounds),
+        }
+        if self.posterior is not None:
+            out["posterior"] = self.posterior.to_dict()
+        return out
+
+    def __str__(self) -> str:
+        lines = [f"{self.model}: {self.loss_name} loss {self.loss:.6g}, rmse {self.metrics['rmse']:.6g}"]
+        for name, value in self.params.items():
+            lines.append(f"  {name} = {_fmt(value)}")
+        lines.append(f"  {self.n_evals} evaluations, {self.seconds:.3g} s; {self.message}")
+        return "\n".join(lines)
+
+
+def _fmt(value) -> str:
+    if np.ndim(value) == 0:
+        return f"{float(value):.6g}"
+    return "[" + ", ".join(f"{v:.4g}" for v in np.ravel(value)) + "]"
+
+
+def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int) -> dict:
+    """Every loss, RMSE, AIC and BIC of predictions ``pred`` (N, C) against ``y``.
+
+    AIC and BIC use the Gaussian likelihood: with per-sample sigma,
+    ``-2 ln L = chi2 + const``, so ``AIC = chi2 + 2k``, ``BIC = chi2 + k ln n``;
+    without sigma, an unknown common variance is profiled out:
+    ``AIC = n ln(RSS/n) + 2k``, ``BIC = n ln(RSS/n) + k ln n`` (n observations,
+    k fitted parameters). Only differences between models on the same data mean
+    anything.
+    """
+    out = {}
+    for name, loss in LOSSES.items():
+        if loss.needs_sigma and ctx.sigma is None:
+            continue
+        out[name] = loss.value(pred, ctx)
+    resid = pred - y
+    n = y.size
+    rss = float(np.sum(resid * resid))
+    out["rmse"] = math.sqrt(rss / n)
+    if ctx.sigma is not None:
+        base = out["chi2"]
+    else:
+        base = n * math.log(max(rss, 1e-300) / n)
+    out["aic"] = base + 2 * n_params
+    out["bic"] = base + n_params * math.log(n)
+    return out
