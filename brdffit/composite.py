@@ -10,6 +10,12 @@ model name, suffixed ``_1``, ``_2``... when a model occurs more than once:
 ``lambert.kd``, ``cook_torrance_1.ks``, ``cook_torrance_1.m``,
 ``cook_torrance_2.ks``...
 
+Order of repeated lobes. A sum with two lobes of the same model is unchanged
+when the lobes swap; fitted parameters are reported in one canonical order:
+repeated lobes sorted by their first shape parameter, ascending (for
+``cook_torrance`` the sharper lobe, smaller ``m``, comes first; for ``blinn``
+the broader one, smaller ``n``).
+
 Diffuse terms. Several Lambertian terms (the ``kd / pi`` of each component)
 are the same column, so their ``kd`` could not be told apart: only the first
 component's constant column is kept, and the constant-column parameters of the
@@ -18,8 +24,8 @@ later components are removed from the sum (held at 0).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
-from typing import Mapping
 
 import numpy as np
 
@@ -27,7 +33,7 @@ from .errors import ModelError
 from .geometry import Geometry
 from .models.base import Classification, Design, Model
 
-__all__ = ["sum_of_lobes", "component_labels"]
+__all__ = ["component_labels", "sum_of_lobes"]
 
 
 def component_labels(names: list[str]) -> list[str]:
@@ -85,16 +91,18 @@ def sum_of_lobes(models: list[Model]) -> Model:
             (linear if p.linear else shape).append(replace(p, name=f"{label}.{p.name}"))
         coefficients += [f"{label}.{c}" for c in model.coefficients if c not in drop]
 
-    def split(values: Mapping, i: int) -> dict:
+    def split(values: Mapping, i: int, held: bool = True) -> dict:
+        """Component i's own values; with ``held``, its removed params at 0."""
         prefix = labels[i] + "."
-        sub = {k[len(prefix):]: v for k, v in values.items() if k.startswith(prefix)}
-        sub.update({name: 0.0 for name in dropped[i]})
+        sub = {k[len(prefix) :]: v for k, v in values.items() if k.startswith(prefix)}
+        if held:
+            sub.update({name: 0.0 for name in dropped[i]})
         return sub
 
     def design(geometry: Geometry, shape_values: Mapping) -> Design:
         columns, offset = [], None
         for i, model in enumerate(models):
-            d = model.design(geometry, split(shape_values, i))
+            d = model.design(geometry, split(shape_values, i, held=False))
             columns += [c for c, n in zip(d.columns, model.coefficients) if n not in dropped[i]]
             if d.offset is not None:
                 offset = d.offset if offset is None else offset + d.offset
@@ -115,6 +123,23 @@ def sum_of_lobes(models: list[Model]) -> Model:
             out.update({f"{labels[i]}.{k}": v for k, v in params.items() if k not in dropped[i]})
         return out
 
+    def canonical(values: Mapping) -> dict:
+        out = dict(values)
+        groups: dict[str, list[int]] = {}
+        for i, model in enumerate(models):
+            groups.setdefault(model.name, []).append(i)
+        for idx in groups.values():
+            first = models[idx[0]].shape_params
+            if len(idx) < 2 or not first:
+                continue
+            key = first[0].name
+            order = sorted(idx, key=lambda i: float(values[f"{labels[i]}.{key}"]))
+            for dst, src in zip(idx, order):
+                for p in models[dst].params:
+                    if p.name not in dropped[dst]:
+                        out[f"{labels[dst]}.{p.name}"] = values[f"{labels[src]}.{p.name}"]
+        return out
+
     doc = "Sum of lobes: " + " + ".join(
         f"{label} ({m.name}: {m.doc.strip().splitlines()[0]})" for label, m in zip(labels, models)
     )
@@ -129,4 +154,5 @@ def sum_of_lobes(models: list[Model]) -> Model:
         to_coefficients=to_coefficients,
         from_coefficients=from_coefficients,
         reciprocal=all(m.reciprocal for m in models),
+        canonical=canonical,
     )

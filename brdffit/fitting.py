@@ -19,8 +19,8 @@ fit never outlives its ``timeout``, and a fit that did not converge says so.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Callable, Mapping
 
 import nlopt
 import numpy as np
@@ -30,7 +30,7 @@ from .losses import LossContext
 from .problem import Problem
 from .result import FitResult, metrics_of
 
-__all__ = ["fit", "FitProgress", "DEFAULT_GLOBAL", "DEFAULT_LOCAL"]
+__all__ = ["DEFAULT_GLOBAL", "DEFAULT_LOCAL", "FitProgress", "fit"]
 
 DEFAULT_GLOBAL = "GN_DIRECT_L"
 DEFAULT_LOCAL = "LN_BOBYQA"
@@ -77,14 +77,22 @@ class _Search:
         self.t0 = time.perf_counter()
         self.stopped = ""
         self.opt = None
+        self.error = None
 
     def __call__(self, x, grad=None):
         if self.n_evals >= self.max_evals or time.perf_counter() > self.deadline:
-            self.stopped = "evaluation budget used up" if self.n_evals >= self.max_evals else "timeout"
+            self.stopped = (
+                "evaluation budget used up" if self.n_evals >= self.max_evals else "timeout"
+            )
             self.opt.force_stop()
             return self.best.loss if self.best is not None else 1e300
         self.n_evals += 1
-        sol = self.problem.solve(np.asarray(x, dtype=float))
+        try:
+            sol = self.problem.solve(np.asarray(x, dtype=float))
+        except Exception as exc:  # a bug, not bad input: stop nlopt and re-raise after it
+            self.error = exc
+            self.opt.force_stop()
+            return 1e300
         self.history.append((sol.loss, np.array(x, dtype=float)))
         if self.best is None or sol.loss < self.best.loss:
             self.best = sol
@@ -96,15 +104,24 @@ class _Search:
     def report(self):
         if self.progress is not None and self.best is not None:
             self.progress(
-                FitProgress(self.stage, self.n_evals, self.max_evals, self.best.loss,
-                            time.perf_counter() - self.t0)
+                FitProgress(
+                    self.stage,
+                    self.n_evals,
+                    self.max_evals,
+                    self.best.loss,
+                    time.perf_counter() - self.t0,
+                )
             )
 
     def run(self, algorithm: str, x0, budget: int, stage: str) -> int | None:
         """Run one nlopt stage; return nlopt's result code (None if it raised)."""
         p = self.problem
         remaining = min(budget, self.max_evals - self.n_evals)
-        if remaining <= 0 or time.perf_counter() > self.deadline:
+        if self.max_evals - self.n_evals <= 0:
+            self.stopped = "evaluation budget used up"
+            return None
+        if time.perf_counter() > self.deadline:
+            self.stopped = "timeout"
             return None
         self.stage = stage
         opt = nlopt.opt(getattr(nlopt, algorithm), p.dim)
@@ -129,6 +146,12 @@ class _Search:
             code = opt.last_optimize_result()
         except (nlopt.ForcedStop, nlopt.RoundoffLimited, RuntimeError, ValueError):
             code = opt.last_optimize_result()
+        if self.error is not None:
+            raise self.error
+        if code == nlopt.MAXTIME_REACHED:
+            self.stopped = "timeout"
+        elif code == nlopt.MAXEVAL_REACHED and self.n_evals >= self.max_evals:
+            self.stopped = "evaluation budget used up"
         self.report()
         return code
 
@@ -137,7 +160,9 @@ def _algorithm(name, field: str, prefix: tuple) -> str | None:
     if name is None or name == "none":
         return None
     if not isinstance(name, str) or not hasattr(nlopt, name) or not name.startswith(prefix):
-        kinds = "global (GN_...)" if prefix[0].startswith("G") else "local derivative-free (LN_...)"
+        kinds = (
+            "global (GN_...)" if prefix[0].startswith("G") else "local derivative-free (LN_...)"
+        )
         raise FitError(f"{field}={name!r} is not an nlopt {kinds} algorithm name", field)
     return name
 
@@ -157,7 +182,7 @@ def _distinct_starts(search: _Search, count: int, exclude: list) -> list:
     width = np.where(p.upper > p.lower, p.upper - p.lower, 1.0)
     chosen = list(exclude)
     out = []
-    for loss, x in sorted(search.history, key=lambda t: t[0]):
+    for _, x in sorted(search.history, key=lambda t: t[0]):
         if len(out) >= count:
             break
         if all(np.max(np.abs((x - c) / width)) > 0.1 for c in chosen):
@@ -230,7 +255,9 @@ def fit(
     global_algorithm = _algorithm(global_algorithm, "global_algorithm", ("GN_", "G_MLSL", "GD_"))
     local_algorithm = _algorithm(local_algorithm, "local_algorithm", ("LN_",))
     if local_algorithm is None:
-        raise FitError("local_algorithm is needed: the polish is what converges", "local_algorithm")
+        raise FitError(
+            "local_algorithm is needed: the polish is what converges", "local_algorithm"
+        )
     global_evals = _positive_int(global_evals, "global_evals", 60 + 60 * d)
     local_evals = _positive_int(local_evals, "local_evals", 100 + 100 * d)
     max_evals = _positive_int(max_evals, "max_evals", 10**9)
@@ -254,8 +281,17 @@ def fit(
     deadline = t0 + timeout if timeout is not None else float("inf")
     search = _Search(problem, max_evals, deadline, progress)
     nlopt.srand(int(seed))
-    code = _optimise(search, problem, x_start, bool(start), global_algorithm, local_algorithm,
-                     global_evals, local_evals, restarts)
+    code = _optimise(
+        search,
+        problem,
+        x_start,
+        bool(start),
+        global_algorithm,
+        local_algorithm,
+        global_evals,
+        local_evals,
+        restarts,
+    )
     if energy_conserving:
         from .energy import constrain_energy
 
@@ -273,8 +309,17 @@ def _shape_defaults(problem: Problem) -> dict:
     return {p.name: p.default for p in problem.free_shape}
 
 
-def _optimise(search, problem, x_start, have_start, global_algorithm, local_algorithm,
-              global_evals, local_evals, restarts):
+def _optimise(
+    search,
+    problem,
+    x_start,
+    have_start,
+    global_algorithm,
+    local_algorithm,
+    global_evals,
+    local_evals,
+    restarts,
+):
     """Global stage, then polishes; returns the nlopt code of the winning polish."""
     if problem.dim == 0:
         search.n_evals += 1
@@ -312,12 +357,18 @@ def _at_bounds(problem: Problem, x: np.ndarray) -> tuple:
 
 def _result(problem: Problem, search: _Search, code, seconds: float, options: dict) -> FitResult:
     if search.best is None:
-        raise FitError("the fit stopped before its first evaluation (timeout or max_evals)", "timeout")
+        raise FitError(
+            "the fit stopped before its first evaluation (timeout or max_evals)", "timeout"
+        )
     params = problem.params_of(search.best)
     pred = problem.predict(params)
     data = problem.data
-    ctx = LossContext(cos_i=np.maximum(data.wi[:, 2], 0.0), y=np.asarray(data.values),
-                      sigma=data.sigma, weights=None)
+    ctx = LossContext(
+        cos_i=np.maximum(data.wi[:, 2], 0.0),
+        y=np.asarray(data.values),
+        sigma=data.sigma,
+        weights=None,
+    )
     n_params = problem.dim + len(problem.free_coefs) * problem.n_channels
     converged = code in _CONVERGED and search.best.loss < 1e300 and not search.stopped
     reason = search.stopped or _REASONS.get(code, f"nlopt result {code}")
@@ -325,12 +376,22 @@ def _result(problem: Problem, search: _Search, code, seconds: float, options: di
     message = ("converged: " if converged else "not converged: ") + reason
     if at_bounds:
         message += "; at a bound of its range: " + ", ".join(at_bounds)
-    keep = ("loss", "global_algorithm", "local_algorithm", "global_evals", "local_evals",
-            "restarts", "max_evals", "timeout", "seed", "energy_conserving")
+    keep = (
+        "loss",
+        "global_algorithm",
+        "local_algorithm",
+        "global_evals",
+        "local_evals",
+        "restarts",
+        "max_evals",
+        "timeout",
+        "seed",
+        "energy_conserving",
+    )
     return FitResult(
         model=problem.model.name,
         params=params,
-        loss=search.best.loss,
+        loss=problem.exact_loss(params),
         loss_name=problem.loss.name,
         metrics=metrics_of(pred, ctx.y, ctx, n_params),
         n_samples=data.n,

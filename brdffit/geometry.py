@@ -14,8 +14,8 @@ Conventions are those of MODELS.md: normal ``N = (0, 0, 1)``, tangent
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import cached_property
-from typing import Callable
 
 import numpy as np
 
@@ -40,7 +40,9 @@ def check_directions(wi, wo) -> tuple[np.ndarray, np.ndarray]:
         try:
             a = np.asarray(w, dtype=float)
         except (TypeError, ValueError) as exc:
-            raise DataError(f"{name} must be an array of numbers of shape (N, 3): {exc}", name)
+            raise DataError(
+                f"{name} must be an array of numbers of shape (N, 3): {exc}", name
+            ) from None
         if a.ndim == 1 and a.shape == (3,):
             a = a[None, :]
         if a.ndim != 2 or a.shape[1] != 3:
@@ -134,7 +136,7 @@ class Geometry:
         """Place values of the valid pairs (M,) or (M, C) into zeros of length N."""
         if self.all_valid:
             return values
-        out = np.zeros((self.n,) + values.shape[1:], dtype=values.dtype)
+        out = np.zeros((self.n, *values.shape[1:]), dtype=values.dtype)
         out[self.valid] = values
         return out
 

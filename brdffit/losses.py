@@ -25,14 +25,14 @@ log and cbrt), and always reports the exact loss.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
 from .errors import FitError
 
-__all__ = ["Loss", "LOSSES", "get_loss", "LossContext"]
+__all__ = ["LOSSES", "Loss", "LossContext", "get_loss"]
 
 
 @dataclass(frozen=True)
@@ -141,8 +141,10 @@ LOSSES: dict[str, Loss] = {
         Loss(
             "cbrt",
             lambda f, ctx: np.cbrt(f * _cos(ctx)),
-            lambda f, ctx: _cos(ctx)
-            / (3.0 * np.cbrt(np.maximum(np.abs(f * _cos(ctx)), _cbrt_floor(ctx))) ** 2),
+            lambda f, ctx: (
+                _cos(ctx)
+                / (3.0 * np.cbrt(np.maximum(np.abs(f * _cos(ctx)), _cbrt_floor(ctx))) ** 2)
+            ),
             False,
             "mean of (cbrt(f cos(theta_i)) - cbrt(y cos(theta_i)))^2",
             "Forés, Ferwerda and Gu 2012, IS&T Color and Imaging Conference 20, 142-148",

@@ -11,7 +11,7 @@ shared by all channels.
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -31,7 +31,7 @@ BAD_LOSS = 1e300
 class Solution:
     """The result of the objective at one point: shape, coefficients, prediction, loss."""
 
-    __slots__ = ("shape", "coefs", "pred", "loss")
+    __slots__ = ("coefs", "loss", "pred", "shape")
 
     def __init__(self, shape, coefs, pred, loss):
         self.shape, self.coefs, self.pred, self.loss = shape, coefs, pred, loss
@@ -63,8 +63,12 @@ class Problem:
         self.free_shape = [
             p for p in self.model.shape_params if p.name not in self.fixed and not p.per_channel
         ]
-        self.lower = np.array([np.log10(p.lower) if p.log_scale else p.lower for p in self.free_shape])
-        self.upper = np.array([np.log10(p.upper) if p.log_scale else p.upper for p in self.free_shape])
+        self.lower = np.array(
+            [np.log10(p.lower) if p.log_scale else p.lower for p in self.free_shape]
+        )
+        self.upper = np.array(
+            [np.log10(p.upper) if p.log_scale else p.upper for p in self.free_shape]
+        )
         self._set_coefficients()
         self._set_targets(weights)
         self._check_size()
@@ -114,11 +118,21 @@ class Problem:
         self.coef_index = [names.index(n) for n in self.free_coefs]
         self.fixed_index = [names.index(n) for n in self.fixed_coefs]
         lo, hi = [], []
+        declared = self.model.coefficient_bounds
         for n in self.free_coefs:
-            p = self.model._index.get(n)
-            lo.append(max(p.lower, 0.0) if p is not None else 0.0)
-            hi.append(p.upper if p is not None else np.inf)
+            if declared is not None:
+                bound = declared[names.index(n)]
+            else:
+                p = self.model._index.get(n)
+                bound = (p.lower, p.upper) if p is not None else (0.0, np.inf)
+            lo.append(max(bound[0], 0.0))
+            hi.append(bound[1])
         self.coef_lower, self.coef_upper = np.array(lo), np.array(hi)
+        self.coef_constraints = None
+        if self.model.coefficient_constraints:
+            rows = np.array([row for row, _ in self.model.coefficient_constraints], dtype=float)
+            bounds = np.array([b for _, b in self.model.coefficient_constraints], dtype=float)
+            self.coef_constraints = (rows[:, self.coef_index], bounds)
 
     def _set_targets(self, weights):
         g = self.geometry
@@ -130,7 +144,9 @@ class Problem:
         if weights is not None:
             w = np.asarray(weights, dtype=float)
             if w.shape != (self.data.n,):
-                raise FitError(f"weights has shape {w.shape}; it must be ({self.data.n},)", "weights")
+                raise FitError(
+                    f"weights has shape {w.shape}; it must be ({self.data.n},)", "weights"
+                )
             if not np.isfinite(w).all() or (w < 0).any() or not (w > 0).any():
                 raise FitError("weights must be finite, non-negative and not all zero", "weights")
             w = w / w.mean()
@@ -188,7 +204,7 @@ class Problem:
     def shape_from_x(self, x) -> dict:
         shape = {}
         for p, v in zip(self.free_shape, x):
-            v = 10.0 ** v if p.log_scale else float(v)
+            v = 10.0**v if p.log_scale else float(v)
             shape[p.name] = float(np.clip(v, p.lower, p.upper))
         for p in self.model.shape_params:
             if p.name in self.fixed:
@@ -228,19 +244,28 @@ class Problem:
         return Solution(shape, coefs, pred, loss)
 
     def _least_squares(self, a, offset, w, z):
-        m, c = z.shape
+        c = z.shape[1]
         target = z - offset
         if a is None:
             wt = np.ones_like(target) if w is None else np.broadcast_to(_as_2d(w), target.shape)
             return np.zeros((c, 0)), np.einsum("mc,mc,mc->c", wt, target, target)
         normal = normal_equations(a, target, w)
-        return solve_bounded(normal, self.coef_lower, self.coef_upper)
+        return solve_bounded(normal, self.coef_lower, self.coef_upper, self.coef_constraints)
 
     def prediction(self, sol: Solution) -> np.ndarray:
         """Model values (M, C) on the valid samples for a solution."""
         if sol.pred is not None:
             return sol.pred
         return self.predict(self.params_of(sol))[self.geometry.valid]
+
+    def exact_loss(self, params: Mapping) -> float:
+        """The loss at full params from the formed residuals (no normal-equation
+        round-off), with the user's weights, as the objective defines it."""
+        pred = self.predict(params)
+        if not self.geometry.all_valid:
+            pred = pred[self.geometry.valid]
+        total = self.loss.value(pred, self.ctx) * self.loss.norm(self.ctx) + self.invalid_loss
+        return total / self.norm
 
     def objective(self, x) -> float:
         return self.solve(x).loss
@@ -257,7 +282,10 @@ class Problem:
         params.update(self.model.params_from_coefficients(coefs))
         for name, value in self.fixed.items():
             params.setdefault(name, value)
-        return {p.name: params[p.name] for p in self.model.params}
+        params = {p.name: params[p.name] for p in self.model.params}
+        if self.model.canonical is not None:
+            params = self.model.canonical(params)
+        return params
 
     def predict(self, params: Mapping) -> np.ndarray:
         """Model values (N, C) at the data's directions for full params."""

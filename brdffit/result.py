@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -117,7 +118,9 @@ class FitResult:
         return out
 
     def __str__(self) -> str:
-        lines = [f"{self.model}: {self.loss_name} loss {self.loss:.6g}, rmse {self.metrics['rmse']:.6g}"]
+        lines = [
+            f"{self.model}: {self.loss_name} loss {self.loss:.6g}, rmse {self.metrics['rmse']:.6g}"
+        ]
         for name, value in self.params.items():
             lines.append(f"  {name} = {_fmt(value)}")
         lines.append(f"  {self.n_evals} evaluations, {self.seconds:.3g} s; {self.message}")

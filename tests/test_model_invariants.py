@@ -7,12 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import hemisphere_pairs, random_params
 
 from brdffit import DataError, ModelError, ParameterError, get_model, list_models
 from brdffit.geometry import Geometry, directions_from_angles
 from brdffit.models import REGISTRY
-
-from conftest import hemisphere_pairs, random_params
 
 MODELS = sorted(REGISTRY)
 
@@ -57,9 +56,13 @@ def test_prepared_equals_unprepared_and_channels_broadcast(name):
     wi, wo = hemisphere_pairs(400, seed=3)
     params = model.defaults()
     geometry = model.prepare(wi, wo)
-    np.testing.assert_array_equal(model.evaluate(wi, wo, params), model.evaluate_prepared(geometry, params))
+    np.testing.assert_array_equal(
+        model.evaluate(wi, wo, params), model.evaluate_prepared(geometry, params)
+    )
     # A second evaluation on the same prepared geometry gives the same values.
-    np.testing.assert_array_equal(model.evaluate_prepared(geometry, params), model.evaluate(wi, wo, params))
+    np.testing.assert_array_equal(
+        model.evaluate_prepared(geometry, params), model.evaluate(wi, wo, params)
+    )
     # Per-channel linear params give one column per channel, each the scalar result.
     per_channel = dict(params)
     scales = (0.25, 0.5, 1.0)
@@ -68,7 +71,9 @@ def test_prepared_equals_unprepared_and_channels_broadcast(name):
     f = model.evaluate(wi, wo, per_channel)
     assert f.shape == (len(wi), 3)
     for c, s in enumerate(scales):
-        one = dict(params, **{p.name: p.lower + s * (p.default - p.lower) for p in model.linear_params})
+        one = dict(
+            params, **{p.name: p.lower + s * (p.default - p.lower) for p in model.linear_params}
+        )
         np.testing.assert_allclose(f[:, c], model.evaluate(wi, wo, one), rtol=1e-12, atol=1e-300)
 
 
@@ -80,7 +85,9 @@ def test_isotropic_models_are_invariant_under_rotation_about_the_normal(name):
     model = get_model(name)
     wi, wo = hemisphere_pairs(1000, seed=4, grazing=False)
     angle = np.radians(37.0)
-    rot = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    rot = np.array(
+        [[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]]
+    )
     for params in param_sets(model, 2):
         f0 = model.evaluate(wi, wo, params)
         f1 = model.evaluate(wi @ rot.T, wo @ rot.T, params)
@@ -109,7 +116,9 @@ def test_anisotropic_models_see_their_anisotropy():
     """Every model classified anisotropic changes under rotation about N at some params."""
     wi, wo = hemisphere_pairs(1000, seed=6, grazing=False)
     angle = np.radians(60.0)
-    rot = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    rot = np.array(
+        [[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]]
+    )
     for model in list_models(symmetry="anisotropic"):
         rng = np.random.default_rng(0)
         changed = 0.0

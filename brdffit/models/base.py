@@ -22,8 +22,9 @@ linear; the docstring of such a model says how.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Mapping, NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -72,7 +73,7 @@ class Param:
         try:
             arr = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
-            raise ParameterError(f"{self.name}={value!r} is not a number", self.name)
+            raise ParameterError(f"{self.name}={value!r} is not a number", self.name) from None
         several = self.linear or self.per_channel
         if arr.ndim > 1 or (arr.ndim == 1 and not several):
             need = "a number or one number per channel" if several else "a single number"
@@ -80,7 +81,9 @@ class Param:
                 f"{self.name} has shape {arr.shape}; it must be {need}", self.name
             )
         if arr.ndim == 1 and arr.size == 0:
-            raise ParameterError(f"{self.name} is an empty list; give at least one value", self.name)
+            raise ParameterError(
+                f"{self.name} is an empty list; give at least one value", self.name
+            )
         if not np.isfinite(arr).all():
             raise ParameterError(f"{self.name}={value!r} is not finite", self.name)
         if (arr < self.lower).any() or (arr > self.upper).any():
@@ -174,6 +177,15 @@ class Model:
     reciprocal : bool
         Whether the formula obeys Helmholtz reciprocity exactly. Tests measure
         it; this flag says what they should find.
+    coefficient_bounds : tuple of (lower, upper), optional
+        Bounds of each coefficient when they are not those of a parameter of the
+        same name (mapped coefficients such as Ashikhmin-Shirley's ``rd_eff``).
+    coefficient_constraints : tuple of (row, bound), optional
+        Linear inequalities ``row . coefficients <= bound`` that the fitting
+        engine enforces when it solves the coefficients.
+    canonical : callable, optional
+        ``canonical(params) -> params`` picks one of several equivalent parameter
+        sets (the order of repeated lobes in a sum), so results are comparable.
     """
 
     name: str
@@ -186,6 +198,9 @@ class Model:
     to_coefficients: Callable | None = None
     from_coefficients: Callable | None = None
     reciprocal: bool = True
+    canonical: Callable | None = None
+    coefficient_bounds: tuple | None = None
+    coefficient_constraints: tuple | None = None
     _index: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
@@ -215,7 +230,7 @@ class Model:
                 f"{self.name} has no parameter {name!r}; its parameters are "
                 f"{', '.join(self.param_names)}",
                 name,
-            )
+            ) from None
 
     def defaults(self) -> dict:
         return {p.name: p.default for p in self.params}
@@ -232,9 +247,7 @@ class Model:
             self.param(unknown[0])
         missing = [p.name for p in self.params if p.name not in params]
         if missing:
-            raise ParameterError(
-                f"{self.name} needs a value for {', '.join(missing)}", missing[0]
-            )
+            raise ParameterError(f"{self.name} needs a value for {', '.join(missing)}", missing[0])
         checked = {p.name: p.check(params[p.name]) for p in self.params}
         several = [p for p in self.params if p.linear or p.per_channel]
         sizes = {np.size(checked[p.name]) for p in several} - {1}

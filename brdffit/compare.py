@@ -1,0 +1,158 @@
+"""Which model describes this material best: fit several, rank them.
+
+``compare(data, models)`` splits the data once (seeded) into a training part
+and a held-out part, fits every model to the training part with the same
+options, and ranks the models two ways:
+
+- by BIC of the training fit (penalises parameters: ``k ln n``), and
+- by the error on the held-out samples (RMSE, and the fit's loss), which no
+  parameter count can game.
+
+When the two rankings disagree the table shows it; neither is hidden.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import FitError
+from .fitting import fit
+from .losses import LossContext, get_loss
+from .models import get_model
+from .result import FitResult
+
+__all__ = ["Comparison", "ComparisonEntry", "compare"]
+
+
+@dataclass(frozen=True)
+class ComparisonEntry:
+    """One model of a comparison."""
+
+    model: str
+    fit: FitResult
+    bic: float
+    aic: float
+    heldout_rmse: float
+    heldout_loss: float
+    rank_bic: int
+    rank_heldout: int
+
+    def to_dict(self) -> dict:
+        return {
+            "model": self.model,
+            "bic": self.bic,
+            "aic": self.aic,
+            "heldout_rmse": self.heldout_rmse,
+            "heldout_loss": self.heldout_loss,
+            "rank_bic": self.rank_bic,
+            "rank_heldout": self.rank_heldout,
+            "fit": self.fit.to_dict(),
+        }
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The ranked result of :func:`compare`; entries are in order of held-out error."""
+
+    entries: tuple
+    loss_name: str
+    test_fraction: float
+    n_train: int
+    n_test: int
+    seed: int
+
+    @property
+    def best_by_bic(self) -> str:
+        return min(self.entries, key=lambda e: e.rank_bic).model
+
+    @property
+    def best_by_heldout(self) -> str:
+        return min(self.entries, key=lambda e: e.rank_heldout).model
+
+    def to_dict(self) -> dict:
+        return {
+            "loss_name": self.loss_name,
+            "test_fraction": self.test_fraction,
+            "n_train": self.n_train,
+            "n_test": self.n_test,
+            "seed": self.seed,
+            "best_by_bic": self.best_by_bic,
+            "best_by_heldout": self.best_by_heldout,
+            "entries": [e.to_dict() for e in self.entries],
+        }
+
+    def __str__(self) -> str:
+        head = (
+            f"{'model':<40} {'BIC':>14} {'held-out rmse':>14} {'rank BIC':>9} "
+            f"{'rank held-out':>14}"
+        )
+        rows = [head, "-" * len(head)]
+        for e in self.entries:
+            rows.append(
+                f"{e.model:<40} {e.bic:>14.6g} {e.heldout_rmse:>14.6g} {e.rank_bic:>9d} "
+                f"{e.rank_heldout:>14d}"
+            )
+        rows.append(
+            f"trained on {self.n_train} samples, held out {self.n_test} "
+            f"({self.test_fraction:.0%}, seed {self.seed})"
+        )
+        return "\n".join(rows)
+
+
+def _ranks(values) -> list:
+    order = np.argsort(values, kind="stable")
+    ranks = np.empty(len(values), dtype=int)
+    ranks[order] = np.arange(1, len(values) + 1)
+    return [int(r) for r in ranks]
+
+
+def compare(
+    data, models, *, test_fraction: float = 0.2, seed: int = 0, **fit_options
+) -> Comparison:
+    """Fit each of ``models`` to the same training split and rank them.
+
+    Parameters
+    ----------
+    data : Measurements
+    models : sequence of str or Model
+    test_fraction : float
+        Share of the samples held out, in (0, 0.9].
+    seed : int
+        Seeds the split and every fit.
+    **fit_options
+        Passed to :func:`brdffit.fit` (``loss``, budgets, ``timeout``...).
+    """
+    if isinstance(models, str):
+        models = [models]
+    models = [get_model(m) for m in models]
+    if not models:
+        raise FitError("compare needs at least one model", "models")
+    if not isinstance(test_fraction, (int, float)) or not 0 < test_fraction <= 0.9:
+        raise FitError(f"test_fraction={test_fraction!r} must be in (0, 0.9]", "test_fraction")
+    train, test = data.split(test_fraction, seed=seed)
+    fits = [fit(train, m, seed=seed, **fit_options) for m in models]
+    loss = get_loss(fits[0].loss_name)
+    ctx = LossContext(
+        cos_i=np.maximum(test.wi[:, 2], 0.0),
+        y=np.asarray(test.values),
+        sigma=test.sigma,
+        weights=None,
+    )
+    rmse, held = [], []
+    for model, result in zip(models, fits):
+        pred = np.asarray(model.evaluate(test.wi, test.wo, dict(result.params)))
+        if pred.ndim == 1:
+            pred = np.repeat(pred[:, None], test.n_channels, axis=1)
+        rmse.append(math.sqrt(float(np.mean((pred - ctx.y) ** 2))))
+        held.append(loss.value(pred, ctx))
+    bic = [r.metrics["bic"] for r in fits]
+    rank_bic, rank_held = _ranks(bic), _ranks(rmse)
+    entries = [
+        ComparisonEntry(m.name, r, b, r.metrics["aic"], e, h, rb, rh)
+        for m, r, b, e, h, rb, rh in zip(models, fits, bic, rmse, held, rank_bic, rank_held)
+    ]
+    entries.sort(key=lambda e: e.rank_heldout)
+    return Comparison(tuple(entries), loss.name, float(test_fraction), train.n, test.n, int(seed))

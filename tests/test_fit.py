@@ -1,0 +1,242 @@
+"""The fitting engine on synthetic data made in the tests: recovery, options, errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import random_params
+
+import brdffit
+from brdffit import FitError, Measurements, ParameterError, fit, get_model
+from brdffit.geometry import directions_from_angles
+from brdffit.losses import LOSSES
+from brdffit.models import REGISTRY
+from brdffit.problem import Problem
+
+
+def gonio_pairs(n: int, seed: int = 0, max_theta: float = 80.0):
+    rng = np.random.default_rng(seed)
+    wi = directions_from_angles(rng.uniform(0, max_theta, n), rng.uniform(0, 360, n))
+    wo = directions_from_angles(rng.uniform(0, max_theta, n), rng.uniform(0, 360, n))
+    return wi, wo
+
+
+def mirror_biased_pairs(n: int, seed: int = 0):
+    """Half random, half near the mirror direction (where glossy lobes live)."""
+    rng = np.random.default_rng(seed)
+    wi, wo = gonio_pairs(n, seed)
+    k = n // 2
+    ti = np.degrees(np.arccos(wi[:k, 2]))
+    pi_ = np.degrees(np.arctan2(wi[:k, 1], wi[:k, 0]))
+    wo[:k] = directions_from_angles(
+        np.clip(ti + rng.normal(0, 6, k), 0, 85), pi_ + 180 + rng.normal(0, 6, k)
+    )
+    return wi, wo
+
+
+def make_data(model, params, n=1500, noise=0.01, seed=0, channels=None):
+    model = get_model(model)
+    wi, wo = mirror_biased_pairs(n, seed)
+    y = np.asarray(model.evaluate(wi, wo, params))
+    rng = np.random.default_rng(seed + 1)
+    y = y * (1 + noise * rng.standard_normal(y.shape))
+    return Measurements(wi, wo, y, channels=channels)
+
+
+RGB = dict(channels=["r", "g", "b"])
+
+
+def test_blinn_rgb_recovery():
+    truth = {"kd": [0.1, 0.3, 0.5], "ks": [2.0, 4.0, 6.0], "n": 120.0}
+    result = fit(make_data("blinn", truth, **RGB), "blinn")
+    assert result.converged, result.message
+    assert result.params["n"] == pytest.approx(120.0, rel=0.03)
+    np.testing.assert_allclose(result.params["kd"], truth["kd"], rtol=0.03)
+    np.testing.assert_allclose(result.params["ks"], truth["ks"], rtol=0.03)
+    assert result.n_channels == 3 and result.n_values == 3 * result.n_samples
+    assert result.n_params == 1 + 2 * 3
+
+
+def test_two_lobe_sum_recovers_both_lobes_in_canonical_order():
+    name = "lambert+blinn+blinn"
+    truth = {
+        "lambert.kd": 0.3,
+        "blinn_1.ks": 2.0,
+        "blinn_2.ks": 50.0,
+        "blinn_1.n": 8.0,
+        "blinn_2.n": 3000.0,
+    }
+    result = fit(make_data(name, truth, n=3000, noise=0.003), name)
+    for key, value in truth.items():
+        assert result.params[key] == pytest.approx(value, rel=0.05), key
+
+
+def test_metrics_are_the_losses_computed_independently():
+    truth = {"kd": 0.2, "ks": 0.5, "m": 0.2, "eta": 1.5}
+    data = make_data("cook_torrance", truth, n=800)
+    result = fit(data, "cook_torrance")
+    f = np.asarray(get_model("cook_torrance").evaluate(data.wi, data.wo, dict(result.params)))
+    y = data.values[:, 0]
+    cos_i = data.wi[:, 2]
+    assert result.metrics["l2"] == pytest.approx(np.mean((f - y) ** 2), rel=1e-9)
+    assert result.metrics["rmse"] == pytest.approx(math.sqrt(np.mean((f - y) ** 2)), rel=1e-9)
+    assert result.metrics["cosine"] == pytest.approx(np.mean(((f - y) * cos_i) ** 2), rel=1e-9)
+    log_ref = np.mean((np.log1p(f * cos_i) - np.log1p(y * cos_i)) ** 2)
+    assert result.metrics["log"] == pytest.approx(log_ref, rel=1e-9)
+    cbrt_ref = np.mean((np.cbrt(f * cos_i) - np.cbrt(y * cos_i)) ** 2)
+    assert result.metrics["cbrt"] == pytest.approx(cbrt_ref, rel=1e-9)
+    n, k = y.size, result.n_params
+    rss = np.sum((f - y) ** 2)
+    assert result.metrics["aic"] == pytest.approx(n * math.log(rss / n) + 2 * k, rel=1e-9)
+    assert result.metrics["bic"] == pytest.approx(
+        n * math.log(rss / n) + k * math.log(n), rel=1e-9
+    )
+    assert "chi2" not in result.metrics  # the data give no sigma
+    assert result.loss == pytest.approx(result.metrics["l2"], rel=1e-6)
+
+
+@pytest.mark.parametrize("loss", [name for name in LOSSES if name != "chi2"])
+def test_every_loss_recovers_noiseless_truth(loss):
+    truth = {"kd": [0.2, 0.4], "ks": [1.0, 3.0], "n": 60.0}
+    data = make_data("blinn", truth, n=600, noise=0.0, channels=["a", "b"])
+    result = fit(data, "blinn", loss=loss)
+    assert result.loss_name == loss
+    assert result.params["n"] == pytest.approx(60.0, rel=1e-3), result.message
+    np.testing.assert_allclose(result.params["ks"], truth["ks"], rtol=1e-3)
+    assert result.loss == pytest.approx(result.metrics[loss], rel=1e-6, abs=1e-18)
+
+
+def test_chi2_needs_sigma_and_uses_it():
+    model = get_model("ward")
+    truth = {"kd": 0.2, "ks": 0.3, "alpha": 0.15}
+    wi, wo = mirror_biased_pairs(700, 3)
+    y = model.evaluate(wi, wo, truth)
+    sigma = 0.01 * y + 1e-4
+    noisy = y + sigma * np.random.default_rng(4).standard_normal(y.shape)
+    with pytest.raises(FitError, match="sigma"):
+        fit(Measurements(wi, wo, noisy), "ward", loss="chi2")
+    result = fit(Measurements(wi, wo, noisy, sigma=sigma), "ward", loss="chi2")
+    assert result.params["alpha"] == pytest.approx(0.15, rel=0.03)
+    # chi2 per degree of freedom of a correct model with the right sigma is near 1.
+    dof = result.n_values - result.n_params
+    assert 0.85 < result.metrics["chi2"] / dof < 1.15
+    assert result.metrics["aic"] == pytest.approx(result.metrics["chi2"] + 2 * result.n_params)
+
+
+def test_fixed_parameters_are_held():
+    truth = {"kd": 0.2, "ks": 0.6, "m": 0.12, "eta": 1.7}
+    data = make_data("cook_torrance", truth)
+    result = fit(data, "cook_torrance", fixed={"eta": 1.7, "kd": 0.2})
+    assert result.params["eta"] == 1.7 and result.params["kd"] == 0.2
+    assert result.params["m"] == pytest.approx(0.12, rel=0.03)
+    assert result.params["ks"] == pytest.approx(0.6, rel=0.03)
+    assert result.n_params == 2 and dict(result.fixed) == {"eta": 1.7, "kd": 0.2}
+
+
+def test_same_seed_same_result_for_a_stochastic_global_algorithm():
+    data = make_data("ward", {"kd": 0.1, "ks": 0.4, "alpha": 0.08})
+    a = fit(data, "ward", global_algorithm="GN_CRS2_LM", seed=7)
+    b = fit(data, "ward", global_algorithm="GN_CRS2_LM", seed=7)
+    assert a.params == b.params and a.n_evals == b.n_evals
+
+
+def test_timeout_and_max_evals_are_obeyed():
+    data = make_data("cook_torrance", {"kd": 0.2, "ks": 0.6, "m": 0.12, "eta": 1.7}, n=20000)
+    result = fit(data, "cook_torrance", timeout=0.3, global_evals=10**6, local_evals=10**6)
+    assert not result.converged and "timeout" in result.message
+    assert result.seconds < 0.3 + 1.0  # one evaluation and the final metrics past the limit
+    result = fit(data, "cook_torrance", max_evals=40)
+    assert result.n_evals <= 40 and not result.converged
+    assert "budget" in result.message
+
+
+def test_progress_is_reported():
+    seen = []
+    fit(
+        make_data("blinn", {"kd": 0.2, "ks": 1.0, "n": 30.0}, n=300), "blinn", progress=seen.append
+    )
+    assert seen and seen[-1].n_evals >= seen[0].n_evals
+    assert {p.stage for p in seen} >= {"global"}
+
+
+@pytest.mark.parametrize(
+    "options, field",
+    [
+        ({"loss": "l3"}, "loss"),
+        ({"global_algorithm": "LN_BOBYQA"}, "global_algorithm"),
+        ({"local_algorithm": "GN_DIRECT"}, "local_algorithm"),
+        ({"global_evals": 0}, "global_evals"),
+        ({"max_evals": -5}, "max_evals"),
+        ({"timeout": -1}, "timeout"),
+        ({"seed": 1.5}, "seed"),
+        ({"restarts": -1}, "restarts"),
+        ({"start": {"kd": 0.1}}, "start"),
+        ({"weights": np.ones(3)}, "weights"),
+        ({"progress": 3}, "progress"),
+    ],
+)
+def test_bad_options_name_the_field(options, field):
+    data = make_data("blinn", {"kd": 0.2, "ks": 1.0, "n": 30.0}, n=100)
+    with pytest.raises(FitError) as info:
+        fit(data, "blinn", **options)
+    assert info.value.field == field and field in str(info.value)
+
+
+def test_bad_fixed_and_start_values_name_the_parameter():
+    data = make_data("blinn", {"kd": 0.2, "ks": 1.0, "n": 30.0}, n=100)
+    with pytest.raises(ParameterError, match=r"n=0\.5 is outside its bounds"):
+        fit(data, "blinn", fixed={"n": 0.5})
+    with pytest.raises(ParameterError, match="has no parameter 'alpha'"):
+        fit(data, "blinn", fixed={"alpha": 0.5})
+    with pytest.raises(ParameterError, match=r"n=1000000.0 is outside"):
+        fit(data, "blinn", start={"n": 1e6})
+
+
+def test_data_too_small_for_the_model():
+    data = make_data("cook_torrance", {"kd": 0.2, "ks": 0.6, "m": 0.12, "eta": 1.7}, n=4)
+    with pytest.raises(FitError, match="more samples than parameters"):
+        fit(data, "cook_torrance")
+
+
+@pytest.mark.parametrize("name", sorted(REGISTRY))
+def test_objective_is_finite_everywhere_in_the_search_box(name):
+    """nlopt must never see NaN: the objective at the corners and random points of
+    the box is finite for every registered model."""
+    model = get_model(name)
+    rng = np.random.default_rng(11)
+    data = make_data(name, random_params(model, rng), n=200, noise=0.01)
+    if data.wavelengths() is None and any(p.per_channel for p in model.params):
+        pytest.skip(f"{name} needs wavelength channels; covered by its own tests")
+    problem = Problem(data, model)
+    points = [problem.lower, problem.upper, problem.default_x()]
+    points += [rng.uniform(problem.lower, problem.upper) for _ in range(20)]
+    for x in points:
+        loss = problem.objective(x)
+        assert np.isfinite(loss) and loss >= 0, (name, x)
+
+
+def test_compare_ranks_the_true_model_first():
+    truth = {"kd": 0.1, "ks": 0.5, "alpha": 0.1}
+    data = make_data("ward", truth, n=1200)
+    result = brdffit.compare(data, ["lambert", "ward", "blinn"], test_fraction=0.25, seed=1)
+    assert result.best_by_heldout == "ward" and result.best_by_bic == "ward"
+    lambert = next(e for e in result.entries if e.model == "lambert")
+    assert lambert.rank_heldout == 3
+    assert result.n_train + result.n_test == data.n
+    assert set(result.to_dict()) >= {"entries", "best_by_bic", "best_by_heldout"}
+
+
+def test_to_dict_is_json_ready():
+    import json
+
+    result = fit(
+        make_data(
+            "blinn", {"kd": [0.2, 0.3], "ks": [1.0, 2.0], "n": 30.0}, n=200, channels=["a", "b"]
+        ),
+        "blinn",
+    )
+    back = json.loads(json.dumps(result.to_dict()))
+    assert back["params"]["kd"] == pytest.approx(list(result.params["kd"]))
+    assert back["model"] == "blinn" and back["channels"] == ["a", "b"]
