@@ -1,26 +1,31 @@
 """brdffit: fit analytic BRDF models to measured reflectance, with uncertainties."""
 
-from .errors import BrdfFitError, DataError, FitError, FormatError, ModelError, ParameterError
 from .compare import compare
+from .errors import BrdfFitError, DataError, FitError, FormatError, ModelError, ParameterError
 from .fitting import fit
 from .geometry import Geometry
+from .io import read, write
 from .measurements import Measurements
 from .models import REGISTRY, get_model, list_models
+from .synth import synthesize
 
 __all__ = [
     "REGISTRY",
-    "get_model",
-    "list_models",
-    "Geometry",
-    "Measurements",
-    "fit",
-    "compare",
     "BrdfFitError",
     "DataError",
     "FitError",
     "FormatError",
+    "Geometry",
+    "Measurements",
     "ModelError",
     "ParameterError",
+    "compare",
+    "fit",
+    "get_model",
+    "list_models",
+    "read",
+    "synthesize",
+    "write",
 ]
 
 __version__ = "0.1.0"

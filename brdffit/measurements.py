@@ -28,6 +28,9 @@ __all__ = ["Measurements"]
 #: Column names of the angles in files; a channel may not take one of them.
 ANGLE_COLUMNS = ("theta_i", "phi_i", "theta_o", "phi_o")
 
+#: The state of a Measurements, in the order of ``Measurements._derived``.
+_FIELDS = ("wi", "wo", "values", "sigma", "channels", "source", "units", "angles")
+
 _WAVELENGTH = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*(?:nm)?\s*$", re.IGNORECASE)
 
 
@@ -116,7 +119,7 @@ def _check_angles(name: str, a, n: int | None, degrees: bool, polar: bool) -> np
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise DataError(
-            f"{name}[{i}] = {float(a[i])!r} is not finite; {int(bad.sum())} entries are NaN or inf",
+            f"{name}[{i}] = {float(a[i])!r} is not finite; {int(bad.sum())} are NaN or inf",
             name,
         )
     if polar:
@@ -208,26 +211,18 @@ class Measurements:
         return obj
 
     def _replace(self, **changes) -> Measurements:
-        fields = ("wi", "wo", "values", "sigma", "channels", "source", "units", "angles")
-        return self._derived(**{k: changes.get(k, getattr(self, "_" + k)) for k in fields})
+        return self._derived(**{k: changes.get(k, getattr(self, "_" + k)) for k in _FIELDS})
 
     def __setattr__(self, name, value):
         raise AttributeError(f"Measurements are read-only; cannot set {name!r}")
 
+    def __reduce__(self):
+        # Pickling (process pools, copy) must not go through the refused __setattr__.
+        return (Measurements._derived, tuple(getattr(self, "_" + k) for k in _FIELDS))
+
     @classmethod
-    def from_angles(
-        cls,
-        theta_i,
-        phi_i,
-        theta_o,
-        phi_o,
-        values,
-        channels=None,
-        sigma=None,
-        degrees=True,
-        source="",
-        units="1/sr",
-    ):
+    def from_angles(cls, theta_i, phi_i, theta_o, phi_o, values, channels=None, sigma=None,
+                    degrees=True, source="", units="1/sr"):  # fmt: skip
         """Measurements from spherical angles (MODELS.md convention).
 
         ``theta`` in [0, 180] (degrees, or [0, pi] radians with ``degrees=False``),

@@ -1,0 +1,87 @@
+"""NumPy ``.npz`` archives of Measurements: lossless, sigma and metadata included.
+
+The archive holds ``wi``, ``wo`` (N, 3), ``values`` (N, C), ``channels`` (C
+strings), ``source``, ``units``, ``format_version`` and, when known, ``sigma``
+(N, C) and the angles the data were built from (``theta_i, phi_i, theta_o,
+phi_o`` and ``angles_in_degrees``). Arrays are stored as they are, so reading
+gives back the same doubles; nothing is pickled (``allow_pickle=False``).
+"""
+
+from __future__ import annotations
+
+import zipfile
+
+import numpy as np
+
+from ..errors import DataError, FormatError
+from ..measurements import ANGLE_COLUMNS, Measurements
+
+__all__ = ["read_npz", "write_npz"]
+
+FORMAT_VERSION = 1
+_REQUIRED = ("wi", "wo", "values", "channels", "source", "units")
+
+
+def write_npz(path, data: Measurements) -> None:
+    """Write ``data`` to a compressed ``.npz`` archive."""
+    arrays = {
+        "format_version": np.array(FORMAT_VERSION),
+        "wi": data.wi,
+        "wo": data.wo,
+        "values": data.values,
+        "channels": np.array(data.channels, dtype=str),
+        "source": np.array(data.source, dtype=str),
+        "units": np.array(data.units, dtype=str),
+    }
+    if data.sigma is not None:
+        arrays["sigma"] = data.sigma
+    stored = data._angles
+    if stored is not None:
+        arrays.update(zip(ANGLE_COLUMNS, stored[0]))
+        arrays["angles_in_degrees"] = np.array(stored[1])
+    # np.savez appends ".npz" to a name without it; open the file ourselves to keep the name.
+    with open(path, "wb") as f:
+        np.savez_compressed(f, **arrays)
+
+
+def read_npz(path) -> Measurements:
+    """Read an archive written by :func:`write_npz`."""
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            contents = {key: archive[key] for key in archive.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
+        if isinstance(exc, FileNotFoundError):
+            raise
+        raise FormatError(f"{path} is not a readable .npz archive: {exc}", "path") from None
+    missing = [key for key in _REQUIRED if key not in contents]
+    if missing:
+        raise FormatError(
+            f"{path} lacks the array(s) {', '.join(missing)}; it is not a brdffit .npz file "
+            f"(it holds {', '.join(sorted(contents)) or 'nothing'})",
+            missing[0],
+        )
+    version = int(contents.get("format_version", FORMAT_VERSION))
+    if version > FORMAT_VERSION:
+        raise FormatError(
+            f"{path} has format_version {version}; this brdffit reads up to {FORMAT_VERSION}",
+            "format_version",
+        )
+    try:
+        data = Measurements(
+            contents["wi"],
+            contents["wo"],
+            contents["values"],
+            channels=[str(c) for c in np.atleast_1d(contents["channels"])],
+            sigma=contents.get("sigma"),
+            source=str(contents["source"]),
+            units=str(contents["units"]),
+        )
+    except DataError as exc:
+        raise FormatError(f"{path}: {exc}", exc.field) from None
+    if all(name in contents for name in ANGLE_COLUMNS):
+        angles = tuple(np.asarray(contents[name], dtype=float) for name in ANGLE_COLUMNS)
+        if any(a.shape != (data.n,) for a in angles):
+            raise FormatError(f"{path}: the angle arrays do not have {data.n} entries", "angles")
+        degrees = bool(contents.get("angles_in_degrees", True))
+        data = data._replace(angles=(angles, degrees))
+    return data
