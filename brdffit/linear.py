@@ -22,7 +22,7 @@ round-off of ``y^T W y``, about 1e-15 of it: far below the noise of any data). L
 from __future__ import annotations
 
 import itertools
-from functools import cache
+from functools import cache, lru_cache
 
 import numpy as np
 from scipy.optimize import lsq_linear
@@ -121,9 +121,16 @@ def solve_bounded(
         x = None
     if x is not None and np.isfinite(x).all() and _feasible(x, lower, upper, constraints).all():
         return x, np.maximum(_objective(normal, x), 0.0)
-    if constraints is not None:
-        return _enumerate_general(normal, lower, upper, constraints)
-    return _enumerate(normal, lower, upper)
+    x, rss = _enumerate(normal, lower, upper)
+    if constraints is None:
+        return x, rss
+    # Only the channels whose box solution breaks a further row need the general
+    # (slower) enumeration.
+    bad = ~_feasible(x, lower, upper, constraints, tol=1e-12)
+    if bad.any():
+        sub = Normal(normal.gram[bad], normal.rhs[bad], normal.yy[bad])
+        x[bad], rss[bad] = _enumerate_general(sub, lower, upper, constraints)
+    return x, rss
 
 
 def _feasible(x, lower, upper, constraints, tol=0.0) -> np.ndarray:
@@ -134,6 +141,19 @@ def _feasible(x, lower, upper, constraints, tol=0.0) -> np.ndarray:
         a, b = constraints
         ok &= ((x @ a.T) <= b + tol * np.maximum(1.0, np.abs(b))).all(axis=-1)
     return ok
+
+
+@lru_cache(maxsize=64)
+def _active_sets(rows_bytes: bytes, shape: tuple) -> tuple:
+    """Every set of at most K linearly independent constraint rows."""
+    rows = np.frombuffer(rows_bytes).reshape(shape)
+    k = shape[1]
+    out = []
+    for size in range(k + 1):
+        for active in itertools.combinations(range(shape[0]), size):
+            if size == 0 or np.linalg.matrix_rank(rows[list(active)]) == size:
+                out.append(active)
+    return tuple(out)
 
 
 def _enumerate_general(normal: Normal, lower, upper, constraints):
@@ -157,27 +177,23 @@ def _enumerate_general(normal: Normal, lower, upper, constraints):
     rows, rhs = np.array(rows), np.array(rhs)
     best_x = np.zeros((c, k))
     best_rss = np.full(c, np.inf)
-    for size in range(k + 1):
-        for active in itertools.combinations(range(len(rows)), size):
-            a_s = rows[list(active)]
-            if size and np.linalg.matrix_rank(a_s) < size:
-                continue
-            kkt = np.zeros((c, k + size, k + size))
-            kkt[:, :k, :k] = normal.gram
-            kkt[:, :k, k:] = a_s.T
-            kkt[:, k:, :k] = a_s
-            vec = np.concatenate(
-                [normal.rhs, np.broadcast_to(rhs[list(active)], (c, size))], axis=1
-            )
-            try:
-                sol = np.linalg.solve(kkt, vec[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                continue
-            x = sol[:, :k]
-            ok = _feasible(x, lower, upper, constraints, tol=1e-10) & np.isfinite(x).all(axis=1)
-            rss = np.where(ok, _objective(normal, x), np.inf)
-            better = rss < best_rss
-            best_x[better], best_rss[better] = x[better], rss[better]
+    for active in _active_sets(rows.tobytes(), rows.shape):
+        size = len(active)
+        a_s = rows[list(active)]
+        kkt = np.zeros((c, k + size, k + size))
+        kkt[:, :k, :k] = normal.gram
+        kkt[:, :k, k:] = a_s.T
+        kkt[:, k:, :k] = a_s
+        vec = np.concatenate([normal.rhs, np.broadcast_to(rhs[list(active)], (c, size))], axis=1)
+        try:
+            sol = np.linalg.solve(kkt, vec[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            continue
+        x = sol[:, :k]
+        ok = _feasible(x, lower, upper, constraints, tol=1e-10) & np.isfinite(x).all(axis=1)
+        rss = np.where(ok, _objective(normal, x), np.inf)
+        better = rss < best_rss
+        best_x[better], best_rss[better] = x[better], rss[better]
     if not np.isfinite(best_rss).all():
         raise np.linalg.LinAlgError("no feasible point found for the linear coefficients")
     return np.clip(best_x, lower, upper), np.maximum(best_rss, 0.0)
