@@ -42,7 +42,15 @@ class Normal:
         self.gram, self.rhs, self.yy = gram, rhs, yy
 
 
-def normal_equations(columns: np.ndarray, y: np.ndarray, w: np.ndarray | None) -> Normal:
+def weighted_target(y: np.ndarray, w: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """``W y`` and ``y^T W y`` per channel, to reuse when the target does not change."""
+    wy = y if w is None else y * (w if w.ndim == 2 else w[:, None])
+    return wy, np.einsum("mc,mc->c", wy, y)
+
+
+def normal_equations(
+    columns: np.ndarray, y: np.ndarray, w: np.ndarray | None, weighted: tuple | None = None
+) -> Normal:
     """Build the normal equations.
 
     Parameters
@@ -50,6 +58,8 @@ def normal_equations(columns: np.ndarray, y: np.ndarray, w: np.ndarray | None) -
     columns : (M, K) or (M, K, C) array (per-channel columns)
     y : (M, C) targets (offset already subtracted)
     w : None, (M,) or (M, C) non-negative weights
+    weighted : (W y, y^T W y), optional
+        From :func:`weighted_target`, when the same target is solved many times.
     """
     k = columns.shape[1]
     c = y.shape[1]
@@ -60,20 +70,17 @@ def normal_equations(columns: np.ndarray, y: np.ndarray, w: np.ndarray | None) -
         rhs = np.einsum("mkc,mc->ck", columns, wy)
         yy = np.einsum("mc,mc->c", wy, y)
         return Normal(gram, rhs, yy)
-    iu = np.triu_indices(k)
-    products = columns[:, iu[0]] * columns[:, iu[1]]  # (M, P)
     if w is None or w.ndim == 1:
-        wy = y if w is None else y * w[:, None]
-        pg = products.sum(axis=0) if w is None else w @ products  # (P,)
-        gram_flat = np.broadcast_to(pg, (c, pg.size))
+        wa = columns if w is None else columns * w[:, None]
+        gram = np.broadcast_to(wa.T @ columns, (c, k, k))
     else:
-        wy = y * w
-        gram_flat = w.T @ products  # (C, P)
-    gram = np.empty((c, k, k))
-    gram[:, iu[0], iu[1]] = gram_flat
-    gram[:, iu[1], iu[0]] = gram_flat
-    rhs = wy.T @ columns  # (C, K)
-    yy = np.einsum("mc,mc->c", wy, y)
+        iu = np.triu_indices(k)
+        gram_flat = w.T @ (columns[:, iu[0]] * columns[:, iu[1]])  # (C, P)
+        gram = np.empty((c, k, k))
+        gram[:, iu[0], iu[1]] = gram_flat
+        gram[:, iu[1], iu[0]] = gram_flat
+    wy, yy = weighted if weighted is not None else weighted_target(y, w)
+    rhs = (columns.T @ wy).T  # (C, K)
     return Normal(gram, rhs, yy)
 
 

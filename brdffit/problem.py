@@ -16,7 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .errors import FitError, ParameterError
-from .linear import normal_equations, solve_bounded
+from .linear import normal_equations, solve_bounded, weighted_target
 from .losses import LossContext, get_loss
 from .models import get_model
 
@@ -163,7 +163,10 @@ class Problem:
         self.invalid_loss = 0.0
         if self.invalid_y is not None and self.invalid_y.size:
             self.invalid_loss = self._invalid_contribution(y_all, sigma, w, valid)
-        self.w_lin, self.z_lin = self.loss.linearised(self.y, self.ctx)
+        self.w_lin, self.z_lin = _compact_weights(*self.loss.linearised(self.y, self.ctx))
+        # For quadratic losses the target never changes: W y and y'Wy are reused
+        # by every evaluation of a model without an offset.
+        self._weighted = weighted_target(self.z_lin, self.w_lin) if self.loss.linear else None
 
     def _invalid_contribution(self, y_all, sigma, w, valid) -> float:
         ctx = LossContext(
@@ -220,10 +223,11 @@ class Problem:
         shape = self.shape_from_x(x)
         design = self.model.design(self.geometry, shape)
         m, c = self.y.shape
-        cols = [_full(col, m) for col in design.columns]
-        offset = np.zeros((m, 1)) if design.offset is None else _as_2d(design.offset)
+        cols = [self._full(col) for col in design.columns]
+        offset = None if design.offset is None else _as_2d(design.offset)
         for i, name in zip(self.fixed_index, self.fixed_coefs):
-            offset = offset + _as_2d(cols[i]) * np.asarray(self.fixed[name], dtype=float)
+            term = _as_2d(cols[i]) * np.asarray(self.fixed[name], dtype=float)
+            offset = term if offset is None else offset + term
         a = _stack([cols[i] for i in self.coef_index], m, c)
         if self.loss.linear:
             # For quadratic losses the weighted residual sum of squares of the
@@ -236,7 +240,7 @@ class Problem:
             for _ in range(NONLINEAR_PASSES):
                 coefs, _ = self._least_squares(a, offset, w, z)
                 pred = _predict(a, offset, coefs, m, c)
-                w, z = self.loss.linearised(pred, self.ctx)
+                w, z = _compact_weights(*self.loss.linearised(pred, self.ctx))
             loss = self.loss.value(pred, self.ctx) * self.loss.norm(self.ctx)
             loss = (loss + self.invalid_loss) / self.norm
         if not np.isfinite(loss):
@@ -245,12 +249,20 @@ class Problem:
 
     def _least_squares(self, a, offset, w, z):
         c = z.shape[1]
-        target = z - offset
+        target = z if offset is None else z - offset
+        reuse = self._weighted if (offset is None and z is self.z_lin) else None
         if a is None:
-            wt = np.ones_like(target) if w is None else np.broadcast_to(_as_2d(w), target.shape)
-            return np.zeros((c, 0)), np.einsum("mc,mc,mc->c", wt, target, target)
-        normal = normal_equations(a, target, w)
+            _, yy = reuse if reuse is not None else weighted_target(target, w)
+            return np.zeros((c, 0)), yy
+        normal = normal_equations(a, target, w, reuse)
         return solve_bounded(normal, self.coef_lower, self.coef_upper, self.coef_constraints)
+
+    def _full(self, col):
+        """A column as an (M,) array; constant columns are cached per value."""
+        if np.ndim(col):
+            return col
+        key = ("constant_column", float(col))
+        return self.geometry.cached(key, lambda: np.full(self.geometry.m, float(col)))
 
     def prediction(self, sol: Solution) -> np.ndarray:
         """Model values (M, C) on the valid samples for a solution."""
@@ -298,13 +310,19 @@ class Problem:
 
 def _predict(a, offset, coefs, m, c):
     if a is None:
-        return np.broadcast_to(offset, (m, c)).copy()
+        return np.broadcast_to(0.0 if offset is None else offset, (m, c)).copy()
     pred = np.einsum("mkc,ck->mc", a, coefs) if a.ndim == 3 else a @ coefs.T
-    return pred + offset
+    return pred if offset is None else pred + offset
 
 
-def _full(col, m: int):
-    return np.full(m, float(col)) if np.ndim(col) == 0 else col
+def _compact_weights(w: np.ndarray, z: np.ndarray):
+    """Weights that are the same for every channel as (M,), all ones as None: the
+    normal equations are then much cheaper to build."""
+    if w.ndim == 2 and (w.shape[1] == 1 or np.array_equal(w, np.broadcast_to(w[:, :1], w.shape))):
+        w = w[:, 0]
+    if w.ndim == 1 and np.all(w == 1.0):
+        w = None
+    return w, z
 
 
 def _as_2d(a):
