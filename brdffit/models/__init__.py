@@ -5,13 +5,14 @@ from __future__ import annotations
 import difflib
 
 from ..errors import ModelError
-from . import anisotropic, empirical, microfacet
+from . import anisotropic, empirical, microfacet, renderers
 from .base import Classification, Design, Model, Param
 
 __all__ = ["REGISTRY", "get_model", "list_models", "Model", "Param", "Classification", "Design"]
 
 REGISTRY: dict[str, Model] = {
-    m.name: m for m in (*empirical.MODELS, *microfacet.MODELS, *anisotropic.MODELS)
+    m.name: m
+    for m in (*empirical.MODELS, *microfacet.MODELS, *renderers.MODELS, *anisotropic.MODELS)
 }
 
 _AXES = ("origin", "symmetry", "operand", "highlight", "wave_optics")

@@ -1,63 +1,229 @@
-"""Isotropic physical models: Ward and the microfacet models.
+"""Isotropic physical models of the paper: Ward, Torrance-Sparrow, Cook-Torrance.
 
-All of them share the pieces of :mod:`brdffit.models.shared` (Fresnel, D,
-shadowing). Parameter-free factors (V-cavity shadowing, 1/(4 N.L N.V)) are
-cached on the geometry, so an evaluation does only the parameter-dependent work.
+All of them are ``kd / pi + ks * lobe`` and share the pieces of
+:mod:`brdffit.models.shared` (Fresnel, D, shadowing). Every parameter-free factor
+(V-cavity shadowing, ``1/(4 N.L N.V)``, Ward's ``1/sqrt(N.L N.V)``,
+``theta_h^2``, Schlick's ``(1 - V.H)^5``) is cached on the geometry, so an
+evaluation does only the parameter-dependent work, in place.
+
+The microfacet models of today's renderers (GGX, Beckmann with Smith shadowing)
+are in :mod:`brdffit.models.renderers`.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from ..geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param
-from .shared import fresnel_dielectric, vcavity_g
+from .shared import fresnel_dielectric, schlick_weight, vcavity_g
 
-__all__ = ["MODELS"]
+__all__ = [
+    "MODELS",
+    "cook_torrance_lobe",
+    "diffuse_params",
+    "eta_param",
+    "f0_param",
+    "inv_4_cos",
+    "roughness",
+    "schlick_fresnel",
+    "torrance_sparrow_lobe",
+    "ward_lobe",
+]
 
-PHYSICAL_ANGLE_MATERIAL = Classification("physical", "isotropic", "angle", "material")
+PHYSICAL_COSINE = Classification("physical", "isotropic", "cosine", "material")
+PHYSICAL_ANGLE = Classification("physical", "isotropic", "angle", "material")
+WARD_CLASS = Classification("physical", "isotropic", "cosine", "light")
+
+#: Upper bound of ks for a normalised lobe (the lobe integrates to about its
+#: Fresnel factor, so ks is an albedo scale near 1; 10 leaves room for data in
+#: arbitrary units).
+KS_NORMALISED = 10.0
 
 
-def diffuse_params(ks_upper: float = 10.0) -> tuple:
+# ---------------------------------------------------------------- parameters
+def diffuse_params(ks_upper: float = KS_NORMALISED, ks_unit: str = "1") -> tuple:
+    """``kd`` (diffuse albedo) and ``ks`` (specular scale), the linear parameters."""
     return (
         Param("kd", 0.0, 1.0, 0.5, linear=True, unit="1", doc="diffuse albedo"),
-        Param("ks", 0.0, ks_upper, 1.0, linear=True, unit="1", doc="specular albedo scale"),
+        Param("ks", 0.0, ks_upper, 1.0, linear=True, unit=ks_unit, doc="specular scale"),
     )
 
 
 def roughness(name: str, default: float = 0.1, doc: str = "") -> Param:
+    """A roughness in [0.001, 1], searched in log space."""
     return Param(name, 1e-3, 1.0, default, log_scale=True, unit="1", doc=doc or "roughness")
 
 
 def eta_param() -> Param:
-    return Param("eta", 1.0, 3.0, 1.5, unit="1", doc="real refractive index (Fresnel)")
+    return Param("eta", 1.0, 3.0, 1.5, unit="1", doc="real refractive index (exact Fresnel)")
+
+
+def f0_param() -> Param:
+    return Param("f0", 0.0, 1.0, 0.04, unit="1", doc="reflectance at normal incidence (Schlick)")
+
+
+# ------------------------------------------------- cached parameter-free terms
+def inv_4_cos(geometry: Geometry) -> np.ndarray:
+    """``1 / (4 (N.L)(N.V))``, the microfacet Jacobian factor; cached."""
+
+    def compute():
+        out = np.multiply(geometry.cos_i, geometry.cos_o)
+        out *= 4.0
+        return np.divide(1.0, out, out=out)
+
+    return geometry.cached("microfacet.inv_4_cos", compute)
 
 
 def _vcavity_over_4(geometry: Geometry) -> np.ndarray:
-    """G / (4 (N.L)(N.V)) with the V-cavity G: parameter-free, cached."""
+    """``G / (4 (N.L)(N.V))`` with the V-cavity ``G``; cached."""
     return geometry.cached(
-        "vcavity_over_4",
-        lambda: vcavity_g(geometry.cos_h, geometry.cos_i, geometry.cos_o, geometry.cos_d)
-        / (4.0 * geometry.cos_i * geometry.cos_o),
+        "microfacet.vcavity_over_4",
+        lambda: (
+            vcavity_g(geometry.cos_h, geometry.cos_i, geometry.cos_o, geometry.cos_d)
+            * inv_4_cos(geometry)
+        ),
     )
 
 
 def _cook_torrance_d_factor(geometry: Geometry) -> np.ndarray:
-    """G / (4 N.L N.V pi cos^4 theta_h): everything but exp(...)/m^2 and F."""
+    """``G / (4 (N.L)(N.V) pi cos^4 theta_h)``: all of Cook-Torrance but
+    ``exp(-tan^2/m^2) / m^2`` and ``F``; cached."""
+
     def compute():
         c2 = geometry.cos_h**2
         return _vcavity_over_4(geometry) * (INV_PI / (c2 * c2))
 
-    return geometry.cached("cook_torrance_d_factor", compute)
+    return geometry.cached("microfacet.cook_torrance_d_factor", compute)
 
 
+def _ward_factor(geometry: Geometry) -> np.ndarray:
+    """``1 / (4 pi sqrt((N.L)(N.V)))``; cached."""
+
+    def compute():
+        out = np.multiply(geometry.cos_i, geometry.cos_o)
+        np.sqrt(out, out=out)
+        out *= 4.0 * math.pi
+        return np.divide(1.0, out, out=out)
+
+    return geometry.cached("microfacet.ward_factor", compute)
+
+
+def _schlick_weight(geometry: Geometry) -> np.ndarray:
+    """``(1 - V.H)^5``; cached, so Schlick's Fresnel costs two operations."""
+    return geometry.cached("microfacet.schlick_weight", lambda: schlick_weight(geometry.cos_d))
+
+
+def schlick_fresnel(geometry: Geometry, f0: float) -> np.ndarray:
+    """Schlick's ``F = f0 + (1 - f0)(1 - V.H)^5`` from the cached weight."""
+    fresnel = np.multiply(_schlick_weight(geometry), 1.0 - f0)
+    fresnel += f0
+    return fresnel
+
+
+# ------------------------------------------------------------------- Ward
+def ward_lobe(geometry: Geometry, alpha: float) -> np.ndarray:
+    """``exp(-tan^2(theta_h)/alpha^2) / (4 pi alpha^2 sqrt((N.L)(N.V)))``."""
+    inv_a2 = 1.0 / (alpha * alpha)
+    lobe = np.multiply(geometry.tan2_h, -inv_a2)
+    np.exp(lobe, out=lobe)
+    lobe *= _ward_factor(geometry)
+    lobe *= inv_a2
+    return lobe
+
+
+def _ward_design(geometry: Geometry, shape) -> Design:
+    return Design((INV_PI, ward_lobe(geometry, shape["alpha"])))
+
+
+WARD = Model(
+    name="ward",
+    params=(*diffuse_params(), roughness("alpha", doc="rms slope of the Gaussian lobe")),
+    classification=WARD_CLASS,
+    reference="G. J. Ward, Measuring and modeling anisotropic reflection, SIGGRAPH 1992 "
+    "(Computer Graphics 26(2), 265-272)",
+    design=_ward_design,
+    doc="""Ward's isotropic Gaussian lobe.
+
+``f = kd/pi + ks exp(-tan^2(theta_h)/alpha^2) / (4 pi alpha^2 sqrt((N.L)(N.V)))``.
+
+Classification. ``origin = physical``: MODELS.md separates models "fitted to look
+right" from models "derived from a surface model (microfacets ...)". Ward's
+exponential is the Beckmann distribution of facet slopes with rms slope alpha,
+and the classification paper presents the model that way ("if the mean deviation
+of the facets' orientation is m, the BRDF of such a surface is ...", grouping it
+with Torrance-Sparrow and Cook-Torrance). The rest is not derived: the Fresnel
+and shadowing-masking factors of a microfacet model are replaced by the
+normalisation ``1/sqrt((N.L)(N.V))``, chosen to fit Ward's measurements and to
+integrate in closed form, which is why later authors call the model empirical
+(Dür 2006, "An improved normalization for the Ward reflectance model"). The
+surface model decides; ``ward_anisotropic`` is classified the same way. That it
+is reciprocal and nearly energy conserving is a measured property, not its
+origin (MODELS.md). ``highlight = light``: without a Fresnel factor nothing makes
+the highlight's colour depend on the material or the angle; as in Phong and
+Blinn it is the colour of ks. ``operand = cosine``: ``tan^2(theta_h)`` comes from dot
+products, no arccos.
+""",
+)
+
+
+# ------------------------------------------------------- Torrance-Sparrow
+def _theta_h2(geometry: Geometry) -> np.ndarray:
+    return geometry.cached("microfacet.theta_h2", lambda: geometry.theta_h**2)
+
+
+def torrance_sparrow_lobe(geometry: Geometry, m: float, fresnel: np.ndarray) -> np.ndarray:
+    """``F D G / (4 (N.L)(N.V))`` with ``D = exp(-(theta_h/m)^2)``, given ``F``."""
+    lobe = np.multiply(_theta_h2(geometry), -1.0 / (m * m))
+    np.exp(lobe, out=lobe)
+    lobe *= _vcavity_over_4(geometry)
+    lobe *= fresnel
+    return lobe
+
+
+def _torrance_sparrow_design(geometry: Geometry, shape) -> Design:
+    fresnel = fresnel_dielectric(geometry.cos_d, shape["eta"])
+    return Design((INV_PI, torrance_sparrow_lobe(geometry, shape["m"], fresnel)))
+
+
+TORRANCE_SPARROW = Model(
+    name="torrance_sparrow",
+    params=(
+        # D is unnormalised: its integral (about pi m^2 for small m) goes into ks,
+        # so ks reaches 1/(pi m^2) = 3e5 for an albedo of 1 at m = 0.001.
+        *diffuse_params(ks_upper=1e7, ks_unit="1/sr"),
+        roughness("m", doc="width (radians) of the Gaussian in theta_h"),
+        eta_param(),
+    ),
+    classification=PHYSICAL_ANGLE,
+    reference="K. E. Torrance and E. M. Sparrow, Theory for off-specular reflection from "
+    "roughened surfaces, JOSA 57(9), 1105-1114, 1967",
+    design=_torrance_sparrow_design,
+    doc="""Torrance-Sparrow: V-groove microfacets with a Gaussian in the angle theta_h.
+
+``f = kd/pi + ks F(V.H) D G / (4 (N.L)(N.V))``, ``D = exp(-(theta_h/m)^2)``,
+exact dielectric Fresnel at ``c = V.H``, V-cavity ``G``.
+
+D is unnormalised (MODELS.md): Torrance and Sparrow write ``D = b exp(-c^2 a^2)``
+with ``a`` the facet angle and ``b`` a constant; ``b`` is absorbed in ks, which
+therefore has units of 1/sr and spans large values for small m. The paper writes
+``c_1 exp(-gamma/m)^2``: the square belongs to the ratio, ``exp(-(gamma/m)^2)``.
+``operand = angle``: D needs ``theta_h = acos(N.H)`` as an angle.
+""",
+)
+
+
+# ----------------------------------------------------------- Cook-Torrance
 def cook_torrance_lobe(geometry: Geometry, m: float, fresnel: np.ndarray) -> np.ndarray:
-    """``F D G / (4 N.L N.V)`` with Beckmann ``D``, given the Fresnel factor."""
-    m2 = m * m
-    lobe = np.exp(geometry.tan2_h * (-1.0 / m2))
+    """``F D G / (4 N.L N.V)`` with Beckmann ``D`` and V-cavity ``G``, given ``F``."""
+    inv_m2 = 1.0 / (m * m)
+    lobe = np.multiply(geometry.tan2_h, -inv_m2)
+    np.exp(lobe, out=lobe)
     lobe *= _cook_torrance_d_factor(geometry)
     lobe *= fresnel
-    lobe *= 1.0 / m2
+    lobe *= inv_m2
     return lobe
 
 
@@ -66,21 +232,44 @@ def _cook_torrance_design(geometry: Geometry, shape) -> Design:
     return Design((INV_PI, cook_torrance_lobe(geometry, shape["m"], fresnel)))
 
 
+def _cook_torrance_schlick_design(geometry: Geometry, shape) -> Design:
+    fresnel = schlick_fresnel(geometry, shape["f0"])
+    return Design((INV_PI, cook_torrance_lobe(geometry, shape["m"], fresnel)))
+
+
+_COOK_TORRANCE_REFERENCE = (
+    "R. L. Cook and K. E. Torrance, A reflectance model for computer graphics, "
+    "SIGGRAPH 1981 / ACM TOG 1(1), 7-24, 1982"
+)
+_COOK_TORRANCE_DOC = """
+
+``f = kd/pi + ks F(V.H) D G / (4 (N.L)(N.V))``,
+``D = exp(-tan^2(theta_h)/m^2) / (pi m^2 cos^4(theta_h))`` (Beckmann), V-cavity
+``G``. The paper writes ``F/pi D G / ((N.L)(N.V))`` with D lacking its 1/pi;
+that differs by a constant absorbed in ks. The normalised form is used so that
+a white conductor has ks near 1 (MODELS.md). ``operand = cosine``:
+``tan^2(theta_h)`` and ``cos^4(theta_h)`` come from ``N.H``, no arccos.
+"""
+
 COOK_TORRANCE = Model(
     name="cook_torrance",
     params=(*diffuse_params(), roughness("m", doc="Beckmann rms slope"), eta_param()),
-    classification=PHYSICAL_ANGLE_MATERIAL,
-    reference="R. L. Cook and K. E. Torrance, A reflectance model for computer graphics, "
-    "SIGGRAPH 1981 / ACM TOG 1(1) 1982",
+    classification=PHYSICAL_COSINE,
+    reference=_COOK_TORRANCE_REFERENCE,
     design=_cook_torrance_design,
-    doc="""Cook-Torrance with Beckmann D and exact dielectric Fresnel.
-
-``f = kd/pi + ks F(V.H) D G / (4 (N.L)(N.V))``,
-``D = exp(-tan^2(theta_h)/m^2) / (pi m^2 cos^4(theta_h))``, V-cavity ``G``.
-The paper writes ``F/pi D G / ((N.L)(N.V))`` with D lacking its 1/pi; that
-differs by a constant absorbed in ks. The normalised form is used so that a
-white conductor has ks near 1 (MODELS.md).
-""",
+    doc="Cook-Torrance with Beckmann D and exact dielectric Fresnel of index eta."
+    + _COOK_TORRANCE_DOC,
 )
 
-MODELS = (COOK_TORRANCE,)
+COOK_TORRANCE_SCHLICK = Model(
+    name="cook_torrance_schlick",
+    params=(*diffuse_params(), roughness("m", doc="Beckmann rms slope"), f0_param()),
+    classification=PHYSICAL_COSINE,
+    reference=_COOK_TORRANCE_REFERENCE + "; C. Schlick, An inexpensive BRDF model for "
+    "physically-based rendering, Computer Graphics Forum 13(3), 1994",
+    design=_cook_torrance_schlick_design,
+    doc="Cook-Torrance with Beckmann D and Schlick's Fresnel "
+    "``F = f0 + (1 - f0)(1 - V.H)^5``." + _COOK_TORRANCE_DOC,
+)
+
+MODELS = (WARD, TORRANCE_SPARROW, COOK_TORRANCE, COOK_TORRANCE_SCHLICK)

@@ -1,0 +1,210 @@
+"""The microfacet models of today's renderers: GGX and Beckmann with Smith shadowing.
+
+``f = kd/pi + ks F(V.H) D(H) G1(L) G1(V) / (4 (N.L)(N.V))`` with the exact
+separable Smith shadowing-masking of each distribution and Schlick's Fresnel
+``F = f0 + (1 - f0)(1 - V.H)^5`` (MODELS.md, "Beyond the paper"). ``alpha_u``
+acts along the tangent T, ``alpha_v`` along the bitangent B. With ``f0 = 1`` and
+``kd = 0`` the specular term is Mitsuba 3's ``roughconductor`` with a perfect
+conductor, whose ``eval`` returns ``F D G / (4 cos(theta_i))``, i.e. the BRDF times
+the cosine of the other direction.
+
+Parameter-free terms (``tan^2`` and the azimuth of L and V, ``1/(4 N.L N.V)``,
+Schlick's ``(1 - V.H)^5``) are cached on the geometry.
+
+References: B. Walter, S. R. Marschner, H. Li, K. E. Torrance, Microfacet models
+for refraction through rough surfaces, EGSR 2007; E. Heitz, Understanding the
+masking-shadowing function in microfacet-based BRDFs, JCGT 3(2), 2014.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import Geometry
+from .base import INV_PI, Classification, Design, Model
+from .microfacet import diffuse_params, f0_param, inv_4_cos, roughness, schlick_fresnel
+from .shared import (
+    beckmann_d,
+    beckmann_d_anisotropic,
+    ggx_d,
+    ggx_d_anisotropic,
+    projected_alpha2,
+    smith_g1_beckmann,
+    smith_g1_ggx,
+)
+
+__all__ = ["MODELS", "anisotropic_lobe", "beckmann_lobe", "ggx_lobe", "isotropic_lobe"]
+
+ISOTROPIC = Classification("physical", "isotropic", "cosine", "material")
+ANISOTROPIC = Classification("physical", "anisotropic", "cosine", "material")
+
+_DISTRIBUTIONS = {
+    "ggx": (ggx_d, ggx_d_anisotropic, smith_g1_ggx),
+    "beckmann": (beckmann_d, beckmann_d_anisotropic, smith_g1_beckmann),
+}
+
+
+# ------------------------------------------------- cached parameter-free terms
+def _tan2(geometry: Geometry, which: str) -> np.ndarray:
+    """``tan^2`` of the polar angle of L (``which = "i"``) or V (``"o"``).
+
+    From the tangential components, ``(x^2 + y^2) / z^2``, which is accurate near
+    the normal, with ``z`` clamped like the geometry's cosines."""
+
+    def compute():
+        w = geometry.wi if which == "i" else geometry.wo
+        cos = geometry.cos_i if which == "i" else geometry.cos_o
+        out = w[:, 0] ** 2
+        out += w[:, 1] ** 2
+        out /= cos
+        out /= cos
+        return out
+
+    return geometry.cached(f"renderers.tan2_{which}", compute)
+
+
+def _cos2_phi(geometry: Geometry, which: str) -> np.ndarray:
+    """``cos^2`` of the azimuth of L or V; 1/2 along the normal, where ``tan^2 = 0``
+    makes ``G1 = 1`` whatever the azimuth."""
+
+    def compute():
+        w = geometry.wi if which == "i" else geometry.wo
+        s2 = w[:, 0] ** 2 + w[:, 1] ** 2
+        out = np.full(geometry.m, 0.5)
+        ok = s2 > 1e-300
+        out[ok] = w[ok, 0] ** 2 / s2[ok]
+        return out
+
+    return geometry.cached(f"renderers.cos2_phi_{which}", compute)
+
+
+# ----------------------------------------------------------------- lobes
+def _finish(geometry: Geometry, lobe, g1, alpha2_i, alpha2_o, f0: float) -> np.ndarray:
+    """``lobe * G1(L) G1(V) F / (4 N.L N.V)``, in place on ``lobe`` (which holds D)."""
+    lobe *= g1(_tan2(geometry, "i"), alpha2_i)
+    lobe *= g1(_tan2(geometry, "o"), alpha2_o)
+    lobe *= inv_4_cos(geometry)
+    lobe *= schlick_fresnel(geometry, f0)
+    return lobe
+
+
+def isotropic_lobe(geometry: Geometry, distribution: str, alpha: float, f0: float):
+    """``F D G1(L) G1(V) / (4 N.L N.V)`` for ``distribution`` "ggx" or "beckmann"."""
+    d_iso, _, g1 = _DISTRIBUTIONS[distribution]
+    alpha2 = alpha * alpha
+    lobe = d_iso(geometry.tan2_h, geometry.cos_h, alpha2)
+    return _finish(geometry, lobe, g1, alpha2, alpha2, f0)
+
+
+def anisotropic_lobe(
+    geometry: Geometry, distribution: str, alpha_u: float, alpha_v: float, f0: float
+) -> np.ndarray:
+    """As :func:`isotropic_lobe` with ``alpha_u`` along T and ``alpha_v`` along B;
+    ``G1`` uses the roughness projected on the azimuth of each direction."""
+    _, d_aniso, g1 = _DISTRIBUTIONS[distribution]
+    lobe = d_aniso(geometry.tan2_h, geometry.cos_h, geometry.cos2_phi_h, alpha_u, alpha_v)
+    alpha2_i = projected_alpha2(_cos2_phi(geometry, "i"), alpha_u, alpha_v)
+    alpha2_o = projected_alpha2(_cos2_phi(geometry, "o"), alpha_u, alpha_v)
+    return _finish(geometry, lobe, g1, alpha2_i, alpha2_o, f0)
+
+
+def ggx_lobe(geometry: Geometry, alpha: float, f0: float) -> np.ndarray:
+    return isotropic_lobe(geometry, "ggx", alpha, f0)
+
+
+def beckmann_lobe(geometry: Geometry, alpha: float, f0: float) -> np.ndarray:
+    return isotropic_lobe(geometry, "beckmann", alpha, f0)
+
+
+# ----------------------------------------------------------------- models
+_GGX_FORMULA = (
+    "``D = 1 / (pi alpha^2 cos^4 (1 + tan^2/alpha^2)^2)`` (GGX, Trowbridge-Reitz), "
+    "``G1(v) = 2 / (1 + sqrt(1 + alpha^2 tan^2 theta_v))``"
+)
+_GGX_REFERENCE = (
+    "B. Walter, S. R. Marschner, H. Li and K. E. Torrance, Microfacet models for "
+    "refraction through rough surfaces, EGSR 2007 (GGX D eq. 33, G1 eq. 34)"
+)
+_BECKMANN_FORMULA = (
+    "``D = exp(-tan^2/alpha^2) / (pi alpha^2 cos^4)``, "
+    "``G1(v) = 1 / (1 + Lambda(a))``, ``a = 1/(alpha tan theta_v)``, "
+    "``Lambda = (erf(a) - 1)/2 + exp(-a^2)/(2 a sqrt(pi))`` (exact Smith, not the "
+    "rational approximation Mitsuba uses)"
+)
+_BECKMANN_REFERENCE = (
+    "P. Beckmann and A. Spizzichino, The scattering of electromagnetic waves from "
+    "rough surfaces, 1963; B. Walter et al., Microfacet models for refraction "
+    "through rough surfaces, EGSR 2007"
+)
+_FORMULAS = {
+    "ggx": (_GGX_FORMULA, _GGX_REFERENCE),
+    "beckmann": (_BECKMANN_FORMULA, _BECKMANN_REFERENCE),
+}
+
+_ANISOTROPIC_NOTE = """
+Anisotropic: in D, ``tan^2/alpha^2`` becomes ``tan^2 (cos^2 phi_h/alpha_u^2 +
+sin^2 phi_h/alpha_v^2)`` and ``alpha^2`` in the normalisation ``alpha_u alpha_v``;
+in ``G1(v)``, ``alpha^2`` becomes ``alpha_u^2 cos^2 phi_v + alpha_v^2 sin^2 phi_v``
+(Heitz 2014, JCGT 3(2), section 5.4). ``alpha_u`` acts along T, ``alpha_v``
+along B; with ``alpha_u = alpha_v`` the model equals its isotropic form.
+"""
+
+_COMMON_NOTE = """
+``f = kd/pi + ks F(V.H) D G1(L) G1(V) / (4 (N.L)(N.V))``, Schlick's
+``F = f0 + (1 - f0)(1 - V.H)^5``. ``physical`` (microfacet theory), ``cosine``
+(``tan^2`` and azimuths from dot products, no arccos), ``material`` (Fresnel).
+With ``f0 = 1``, ``kd = 0``, ``ks = 1`` it equals Mitsuba 3's ``roughconductor``
+with a perfect conductor divided by ``cos(theta_o)``.
+"""
+
+
+def _isotropic_model(distribution: str) -> Model:
+    formula, reference = _FORMULAS[distribution]
+
+    def design(geometry: Geometry, shape) -> Design:
+        lobe = isotropic_lobe(geometry, distribution, shape["alpha"], shape["f0"])
+        return Design((INV_PI, lobe))
+
+    return Model(
+        name=distribution,
+        params=(*diffuse_params(), roughness("alpha", doc="roughness (rms slope)"), f0_param()),
+        classification=ISOTROPIC,
+        reference=reference,
+        design=design,
+        doc=f"Isotropic {distribution} microfacet model with exact Smith shadowing.\n"
+        f"{_COMMON_NOTE}\n{formula}.\n",
+    )
+
+
+def _anisotropic_model(distribution: str) -> Model:
+    formula, reference = _FORMULAS[distribution]
+
+    def design(geometry: Geometry, shape) -> Design:
+        lobe = anisotropic_lobe(
+            geometry, distribution, shape["alpha_u"], shape["alpha_v"], shape["f0"]
+        )
+        return Design((INV_PI, lobe))
+
+    return Model(
+        name=f"{distribution}_anisotropic",
+        params=(
+            *diffuse_params(),
+            roughness("alpha_u", doc="roughness along the tangent T"),
+            roughness("alpha_v", 0.3, doc="roughness along the bitangent B"),
+            f0_param(),
+        ),
+        classification=ANISOTROPIC,
+        reference=reference + "; E. Heitz, Understanding the masking-shadowing function "
+        "in microfacet-based BRDFs, JCGT 3(2), 2014",
+        design=design,
+        doc=f"Anisotropic {distribution} microfacet model with exact Smith shadowing.\n"
+        f"{_COMMON_NOTE}\nIsotropic form: {formula}.\n{_ANISOTROPIC_NOTE}",
+    )
+
+
+GGX = _isotropic_model("ggx")
+BECKMANN = _isotropic_model("beckmann")
+GGX_ANISOTROPIC = _anisotropic_model("ggx")
+BECKMANN_ANISOTROPIC = _anisotropic_model("beckmann")
+
+MODELS = (GGX, BECKMANN, GGX_ANISOTROPIC, BECKMANN_ANISOTROPIC)
