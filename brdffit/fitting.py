@@ -6,7 +6,7 @@ parameters (log10 space for log-scale ones); the linear coefficients are solved
 at every step (:class:`~brdffit.problem.Problem`). The strategy:
 
 1. a global nlopt algorithm over the whole box of the shape parameters
-   (default ``GN_DIRECT_L``, chosen by the comparison in
+   (default ``GN_CRS2_LM``, chosen by the comparison in
    ``benchmarks/bench_fit_algorithms.py``);
 2. a local polish (default ``LN_BOBYQA``) from the best global point, from the
    user's ``start`` if given, and from ``restarts`` further distinct good points
@@ -32,7 +32,7 @@ from .result import FitResult, metrics_of
 
 __all__ = ["DEFAULT_GLOBAL", "DEFAULT_LOCAL", "FitProgress", "fit"]
 
-DEFAULT_GLOBAL = "GN_DIRECT_L"
+DEFAULT_GLOBAL = "GN_CRS2_LM"
 DEFAULT_LOCAL = "LN_BOBYQA"
 _CONVERGED = {nlopt.SUCCESS, nlopt.STOPVAL_REACHED, nlopt.FTOL_REACHED, nlopt.XTOL_REACHED}
 _REASONS = {
@@ -195,7 +195,7 @@ def fit(
     data,
     model,
     *,
-    loss: str = "l2",
+    loss: str | None = None,
     weights=None,
     fixed: Mapping | None = None,
     start: Mapping | None = None,
@@ -220,9 +220,11 @@ def fit(
     model : str or Model
         A registered name, a sum of lobes (``"lambert+cook_torrance+cook_torrance"``)
         or a Model.
-    loss : str
+    loss : str, optional
         ``l2``, ``cosine``, ``log``, ``cbrt``, ``relative`` or ``chi2``
-        (:mod:`brdffit.losses`).
+        (:mod:`brdffit.losses`). Default: ``chi2`` when the data give per-sample
+        sigma (weighted least squares, the maximum-likelihood fit for Gaussian
+        noise of that sigma), ``l2`` otherwise.
     weights : array_like (N,), optional
         Per-sample weights.
     fixed : mapping, optional
@@ -250,6 +252,8 @@ def fit(
         ``posterior_options``; the result's ``posterior`` holds it.
     """
     t0 = time.perf_counter()
+    if loss is None:
+        loss = "chi2" if getattr(data, "sigma", None) is not None else "l2"
     problem = Problem(data, model, loss=loss, weights=weights, fixed=fixed)
     d = problem.dim
     global_algorithm = _algorithm(global_algorithm, "global_algorithm", ("GN_", "G_MLSL", "GD_"))
