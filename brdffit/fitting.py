@@ -27,6 +27,7 @@ import numpy as np
 
 from .errors import FitError
 from .losses import LossContext
+from .models import get_model
 from .problem import Problem
 from .result import FitResult, metrics_of
 
@@ -198,6 +199,7 @@ def fit(
     loss: str | None = None,
     weights=None,
     fixed: Mapping | None = None,
+    free=(),
     start: Mapping | None = None,
     global_algorithm: str | None = DEFAULT_GLOBAL,
     local_algorithm: str = DEFAULT_LOCAL,
@@ -229,6 +231,9 @@ def fit(
         Per-sample weights.
     fixed : mapping, optional
         Parameters held at given values.
+    free : sequence of str
+        Parameters that the model holds by default (``Model.held``: material
+        constants and instrument properties of ``he``) to search anyway.
     start : mapping, optional
         An initial guess of shape parameters; polished locally besides the global stage.
     global_algorithm, local_algorithm : str
@@ -244,7 +249,11 @@ def fit(
     seed : int
         Seeds nlopt's stochastic algorithms; the same seed gives the same result.
     energy_conserving : bool
-        Constrain the directional albedo to at most 1 at every incidence angle.
+        Constrain the directional albedo to at most 1 at every incidence angle
+        (0 to 85 degrees by 5, enforced exactly on the linear coefficients at
+        every step; :mod:`brdffit.energy`). The result is then checked with the
+        full-accuracy quadrature from 0 to 89 degrees: ``metrics["max_albedo"]``
+        and the message say what was found.
     progress : callable, optional
         Called with a :class:`FitProgress` now and then.
     uncertainty : bool
@@ -254,7 +263,12 @@ def fit(
     t0 = time.perf_counter()
     if loss is None:
         loss = "chi2" if getattr(data, "sigma", None) is not None else "l2"
-    problem = Problem(data, model, loss=loss, weights=weights, fixed=fixed)
+    if not isinstance(energy_conserving, bool):
+        raise FitError(f"energy_conserving={energy_conserving!r} must be True or False",
+                       "energy_conserving")  # fmt: skip
+    fixed = _with_held(get_model(model), fixed, free)
+    problem = Problem(data, model, loss=loss, weights=weights, fixed=fixed,
+                      energy_conserving=energy_conserving)  # fmt: skip
     d = problem.dim
     global_algorithm = _algorithm(global_algorithm, "global_algorithm", ("GN_", "G_MLSL", "GD_"))
     local_algorithm = _algorithm(local_algorithm, "local_algorithm", ("LN_",))
@@ -296,10 +310,6 @@ def fit(
         local_evals,
         restarts,
     )
-    if energy_conserving:
-        from .energy import constrain_energy
-
-        code = constrain_energy(search, problem, local_evals)
     result = _result(problem, search, code, time.perf_counter() - t0, locals())
     if uncertainty:
         from .posterior import sample_posterior
@@ -307,6 +317,23 @@ def fit(
         post = sample_posterior(data, result, **dict(posterior_options or {}))
         result = replace(result, posterior=post)
     return result
+
+
+def _with_held(model, fixed, free) -> dict:
+    """The user's ``fixed``, plus the model's held parameters at their defaults
+    unless they are named in ``free`` (or fixed by the user)."""
+    if isinstance(free, str) or not all(isinstance(n, str) for n in free):
+        raise FitError("free must be a list of parameter names", "free")
+    for name in free:
+        if name not in model.held:
+            held = ", ".join(model.held) or "none"
+            raise FitError(
+                f"free names {name!r}, which {model.name} does not hold (it holds: {held})",
+                "free",
+            )
+    out = {n: model.param(n).default for n in model.held if n not in free}
+    out.update(fixed or {})
+    return out
 
 
 def _shape_defaults(problem: Problem) -> dict:
@@ -380,6 +407,16 @@ def _result(problem: Problem, search: _Search, code, seconds: float, options: di
     message = ("converged: " if converged else "not converged: ") + reason
     if at_bounds:
         message += "; at a bound of its range: " + ", ".join(at_bounds)
+    metrics = metrics_of(pred, ctx.y, ctx, n_params)
+    if problem.energy is not None:
+        from .energy import check_energy
+
+        top, err, angle = check_energy(problem.model, params)
+        metrics["max_albedo"] = top
+        message += (
+            f"; energy: max directional albedo {top:.6f} (+-{err:.1e}) at {angle:g} deg"
+            + ("" if top <= 1 + 1e-3 else ", ABOVE 1 between the enforced angles")
+        )
     keep = (
         "loss",
         "global_algorithm",
@@ -397,7 +434,7 @@ def _result(problem: Problem, search: _Search, code, seconds: float, options: di
         params=params,
         loss=problem.exact_loss(params),
         loss_name=problem.loss.name,
-        metrics=metrics_of(pred, ctx.y, ctx, n_params),
+        metrics=metrics,
         n_samples=data.n,
         n_channels=problem.n_channels,
         n_values=int(ctx.y.size),

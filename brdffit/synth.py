@@ -208,6 +208,12 @@ def synthesize(model, params=None, geometry="gonio", noise=0.0, noise_kind="rela
     f = f.reshape(len(wi), -1)
     sigma = _noise_sigma(f, noise, noise_kind) if noise > 0 else None
     noisy = f if sigma is None else f + sigma * rng.standard_normal(f.shape)
+    wavelength = next((p.name for p in model.params if p.per_channel), None)
+    if channels is None and wavelength is not None:
+        # Channels of a wave-optics model are named by their wavelength, so that a
+        # fit of the data finds them (``550nm``).
+        nm = np.broadcast_to(np.asarray(values[wavelength], dtype=float), (f.shape[1],))
+        channels = tuple(f"{w:g}nm" for w in nm)
     if channels is None and f.shape[1] in (1, 3):
         channels = ("value",) if f.shape[1] == 1 else ("r", "g", "b")
     source = f"synthetic {model.name}, {noise:g} {noise_kind} noise, seed {seed}"

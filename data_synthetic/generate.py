@@ -105,6 +105,16 @@ PARAMS = {
             "f0": 0.9,
         }
     },
+    # Wave optics: four wavelengths (channels named 400nm...), the material
+    # constants eta, k and the aperture at the model's defaults (held in fits).
+    "he": {
+        "params": {
+            "a_ud": [0.05, 0.05, 0.05, 0.05],
+            "sigma0": 0.12,
+            "tau": 1.5,
+            "wavelength": [400.0, 500.0, 600.0, 700.0],
+        }
+    },
 }
 
 

@@ -5,14 +5,20 @@ from __future__ import annotations
 import difflib
 
 from ..errors import ModelError
-from . import anisotropic, empirical, microfacet, renderers
+from . import anisotropic, empirical, microfacet, renderers, wave
 from .base import Classification, Design, Model, Param
 
 __all__ = ["REGISTRY", "get_model", "list_models", "Model", "Param", "Classification", "Design"]
 
 REGISTRY: dict[str, Model] = {
     m.name: m
-    for m in (*empirical.MODELS, *microfacet.MODELS, *renderers.MODELS, *anisotropic.MODELS)
+    for m in (
+        *empirical.MODELS,
+        *microfacet.MODELS,
+        *renderers.MODELS,
+        *anisotropic.MODELS,
+        *wave.MODELS,
+    )
 }
 
 _AXES = ("origin", "symmetry", "operand", "highlight", "wave_optics")

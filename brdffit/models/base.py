@@ -177,6 +177,9 @@ class Model:
     reciprocal : bool
         Whether the formula obeys Helmholtz reciprocity exactly. Tests measure
         it; this flag says what they should find.
+    held : tuple of str
+        Parameters a fit holds at their defaults unless told to free them
+        (material constants and instrument properties of wave-optics models).
     coefficient_bounds : tuple of (lower, upper), optional
         Bounds of each coefficient when they are not those of a parameter of the
         same name (mapped coefficients such as Ashikhmin-Shirley's ``rd_eff``).
@@ -199,6 +202,7 @@ class Model:
     from_coefficients: Callable | None = None
     reciprocal: bool = True
     canonical: Callable | None = None
+    held: tuple = ()
     coefficient_bounds: tuple | None = None
     coefficient_constraints: tuple | None = None
     _index: dict = field(default_factory=dict, repr=False)

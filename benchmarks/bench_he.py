@@ -1,0 +1,113 @@
+"""Evaluation cost of the He-Torrance-Sillion-Greenberg model, on one core.
+
+Two tables, from the same random direction pairs over the upper hemisphere:
+
+1. Throughput of ``he`` (prepared geometry, as in a fit) at its default
+   parameters with 1, 3 and 31 wavelengths, next to ``cook_torrance`` at its
+   defaults, in M pair-channels per second (one BRDF value each).
+2. The series over m of the directional-diffuse term, alone: mean and largest
+   number of terms per element and time, for surfaces from smooth to rough
+   (sigma0 / lambda, hence g), at the default truncation bound (1e-6 of the
+   lobe's peak) and at looser and tighter ones, with the largest error measured
+   against a sum truncated at 1e-13 (relative to the peak).
+
+Each time is the median of ``--repeats`` timed calls after one untimed call.
+
+Usage::
+
+    python benchmarks/bench_he.py [--pairs 100000] [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import bench_evaluate  # before numpy: it pins the thread pools to one core
+import numpy as np
+
+from brdffit.geometry import Geometry
+from brdffit.models import get_model
+from brdffit.models.he_terms import SERIES_TOLERANCE, dd_series
+from brdffit.models.wave import HE, series_arguments
+
+WAVELENGTHS = {1: [550.0], 3: [450.0, 550.0, 650.0], 31: list(np.arange(400.0, 701.0, 10.0))}
+#: sigma0 in micrometres at 550 nm: smooth (g < 1), intermediate (g ~ 10), rough (g ~ 1e3).
+SURFACES = {"smooth": 0.02, "default": 0.18, "rough": 2.0}
+TOLERANCES = (1e-3, SERIES_TOLERANCE, 1e-9)
+
+
+def throughput_table(wi, wo, repeats: int) -> None:
+    geometry = Geometry(wi, wo)
+    cook = get_model("cook_torrance")
+    base = bench_evaluate.median_seconds(
+        lambda: cook.evaluate_prepared(geometry, cook.defaults()), repeats
+    )
+    print("| model | channels | M pair-channels/s | ns per pair-channel | x cook_torrance |")
+    print("| --- | ---: | ---: | ---: | ---: |")
+    print(
+        f"| cook_torrance | 1 | {wi.shape[0] / base / 1e6:.2f} | "
+        f"{base / wi.shape[0] * 1e9:.0f} | 1 |"
+    )
+    for count, wavelengths in WAVELENGTHS.items():
+        params = {**HE.defaults(), "wavelength": wavelengths}
+        seconds = bench_evaluate.median_seconds(
+            lambda params=params: HE.evaluate_prepared(geometry, params), repeats
+        )
+        per = seconds / (wi.shape[0] * count)
+        print(
+            f"| he | {count} | {1e-6 / per:.2f} | {per * 1e9:.0f} | "
+            f"{per * wi.shape[0] / base:.0f} |",
+            flush=True,
+        )
+
+
+def series_table(wi, wo, repeats: int) -> None:
+    geometry = Geometry(wi, wo)
+    print(
+        "| surface | sigma0 (um) | median g | max g | tolerance | mean terms | max terms "
+        "| ms | ns per element | max error / peak |"
+    )
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for label, sigma0 in SURFACES.items():
+        shape = {**HE.defaults(), "sigma0": sigma0}
+        g, a, _ = series_arguments(geometry, shape)
+        exact = dd_series(g, a, 1e-13)
+        peak = dd_series(g, np.zeros_like(a), 1e-13)
+        for tol in TOLERANCES:
+            seconds = bench_evaluate.median_seconds(
+                lambda g=g, a=a, tol=tol: dd_series(g, a, tol), repeats
+            )
+            value, terms = dd_series(g, a, tol, count_terms=True)
+            error = np.max(np.abs(value - exact) / np.where(peak > 0, peak, 1.0))
+            print(
+                f"| {label} | {sigma0:g} | {np.median(g):.3g} | {g.max():.3g} | {tol:g} | "
+                f"{terms.mean():.1f} | {terms.max()} | {seconds * 1e3:.1f} | "
+                f"{seconds / g.size * 1e9:.0f} | {error:.1e} |",
+                flush=True,
+            )
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--pairs", type=int, default=100_000, help="direction pairs")
+    parser.add_argument("--repeats", type=int, default=3, help="timed calls per figure (median)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the direction pairs")
+    args = parser.parse_args(argv)
+    if args.pairs < 1 or args.repeats < 1:
+        parser.error("--pairs and --repeats must be at least 1")
+    wi, wo = bench_evaluate.random_pairs(args.pairs, args.seed)
+    print("# He-Torrance-Sillion-Greenberg: evaluation cost (one core)\n")
+    for line in bench_evaluate.machine():
+        print(f"- {line}")
+    print(f"- {args.pairs} random pairs, median of {args.repeats} calls\n")
+    print("## Throughput at the default parameters\n")
+    throughput_table(wi, wo, args.repeats)
+    print("\n## The series over m (directional diffuse), one wavelength (550 nm)\n")
+    series_table(wi, wo, args.repeats)
+    print(f"\nCommand: python {' '.join(sys.argv)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
