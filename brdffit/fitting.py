@@ -34,6 +34,8 @@ from .result import FitResult, metrics_of
 __all__ = ["DEFAULT_GLOBAL", "DEFAULT_LOCAL", "FitProgress", "fit"]
 
 DEFAULT_GLOBAL = "GN_CRS2_LM"
+#: Above this many samples the global stage works on a seeded subsample of this size.
+GLOBAL_SAMPLES = 20_000
 DEFAULT_LOCAL = "LN_BOBYQA"
 _CONVERGED = {nlopt.SUCCESS, nlopt.STOPVAL_REACHED, nlopt.FTOL_REACHED, nlopt.XTOL_REACHED}
 _REASONS = {
@@ -79,6 +81,7 @@ class _Search:
         self.stopped = ""
         self.opt = None
         self.error = None
+        self.global_problem = None
 
     def __call__(self, x, grad=None):
         if self.n_evals >= self.max_evals or time.perf_counter() > self.deadline:
@@ -101,6 +104,25 @@ class _Search:
         if self.progress is not None and self.n_evals % 25 == 0:
             self.report()
         return sol.loss
+
+    def scout(self) -> _Search:
+        """A search for the global stage: on the same problem, or, for large data, on
+        a seeded subsample of GLOBAL_SAMPLES samples (the global stage only has to
+        find the right basin; the polish then runs on every sample)."""
+        if self.global_problem is None:
+            return self
+        out = _Search(self.global_problem, self.max_evals, self.deadline, self.progress)
+        out.t0 = self.t0
+        return out
+
+    def absorb(self, scout: _Search):
+        """Take over the scout's counts (its losses are on another sample set)."""
+        if scout is self:
+            return
+        self.n_evals += scout.n_evals
+        self.stopped = self.stopped or scout.stopped
+        if scout.error is not None:
+            raise scout.error
 
     def report(self):
         if self.progress is not None and self.best is not None:
@@ -298,6 +320,13 @@ def fit(
             )
     deadline = t0 + timeout if timeout is not None else float("inf")
     search = _Search(problem, max_evals, deadline, progress)
+    if data.n > GLOBAL_SAMPLES and global_algorithm is not None:
+        index = np.sort(np.random.default_rng(int(seed)).choice(data.n, GLOBAL_SAMPLES, replace=False))
+        search.global_problem = Problem(
+            data.subset(index), problem.model, loss=loss,
+            weights=None if weights is None else np.asarray(weights)[index],
+            fixed=fixed, energy_conserving=energy_conserving,
+        )  # fmt: skip
     nlopt.srand(int(seed))
     code = _optimise(
         search,
@@ -357,14 +386,14 @@ def _optimise(
         search.best = problem.solve(np.zeros(0))
         search.best_x = np.zeros(0)
         return nlopt.SUCCESS
+    starts = [x_start] if (have_start or global_algorithm is None) else []
     if global_algorithm is not None:
-        search.run(global_algorithm, x_start, global_evals, "global")
-    starts = []
-    if have_start or global_algorithm is None:
-        starts.append(x_start)
-    if search.best is not None:
-        starts.append(search.best_x.copy())
-    starts += _distinct_starts(search, restarts, starts)
+        scout = search.scout()
+        scout.run(global_algorithm, x_start, global_evals, "global")
+        search.absorb(scout)
+        if scout.best is not None:
+            starts.append(scout.best_x.copy())
+        starts += _distinct_starts(scout, restarts, starts)
     winner = None
     for i, x0 in enumerate(starts):
         before = search.best.loss if search.best is not None else np.inf

@@ -259,3 +259,19 @@ def test_global_stage_finds_what_a_local_polish_from_the_default_start_misses():
     assert abs(local.params["t"] - 0.93) > 0.1
     assert full.params["t"] == pytest.approx(0.93, rel=0.01)
     assert full.params["n"] == pytest.approx(23.3, rel=0.01)
+
+
+def test_large_data_search_globally_on_a_subsample_and_polish_on_all(monkeypatch):
+    """Above GLOBAL_SAMPLES samples the global stage scouts a seeded subsample; the
+    polish then uses every sample, so the answer is that of the full data."""
+    import brdffit.fitting as fitting
+
+    monkeypatch.setattr(fitting, "GLOBAL_SAMPLES", 400)
+    truth = {"kd": [0.2, 0.3], "ks": [1.0, 2.0], "n": 80.0}
+    data = make_data("blinn", truth, n=3000, channels=["a", "b"])
+    scouted = fit(data, "blinn", seed=3)
+    monkeypatch.setattr(fitting, "GLOBAL_SAMPLES", 10**9)
+    full = fit(data, "blinn", seed=3)
+    assert scouted.converged and scouted.n_samples == 3000
+    assert scouted.params["n"] == pytest.approx(full.params["n"], rel=1e-5)
+    assert scouted.loss == pytest.approx(full.loss, rel=1e-9)
