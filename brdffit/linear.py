@@ -110,8 +110,9 @@ def solve_bounded(
     normal : Normal
     lower, upper : (K,) bounds (upper may be inf)
     constraints : (A, b), optional
-        Further linear inequalities ``A x <= b`` (A of shape (R, K)) that every
-        channel's coefficients obey (Ashikhmin-Shirley's ``rd (1 - rs) <= 1 - rs``).
+        Further linear inequalities ``A x <= b`` (A of shape (R, K), b of shape
+        (R,) or (C, R)) that every channel's coefficients obey
+        (Ashikhmin-Shirley's ``rd (1 - rs) <= 1 - rs``, energy conservation).
 
     Returns
     -------
@@ -135,8 +136,10 @@ def solve_bounded(
     # (slower) enumeration.
     bad = ~_feasible(x, lower, upper, constraints, tol=1e-12)
     if bad.any():
+        a, b = constraints
         sub = Normal(normal.gram[bad], normal.rhs[bad], normal.yy[bad])
-        x[bad], rss[bad] = _enumerate_general(sub, lower, upper, constraints)
+        sub_b = b[bad] if np.ndim(b) == 2 else b
+        x[bad], rss[bad] = _enumerate_general(sub, lower, upper, (a, sub_b))
     return x, rss
 
 
@@ -170,6 +173,7 @@ def _enumerate_general(normal: Normal, lower, upper, constraints):
     optimum of the convex problem."""
     c, k = normal.rhs.shape
     a_extra, b_extra = constraints
+    b_extra = np.broadcast_to(np.asarray(b_extra, dtype=float), (c, len(a_extra)))
     rows, rhs = [], []
     for j in range(k):
         e = np.zeros(k)
@@ -180,8 +184,8 @@ def _enumerate_general(normal: Normal, lower, upper, constraints):
             rows.append(e)
             rhs.append(upper[j])
     rows += list(np.asarray(a_extra, dtype=float))
-    rhs += list(np.asarray(b_extra, dtype=float))
-    rows, rhs = np.array(rows), np.array(rhs)
+    rows = np.array(rows)
+    rhs = np.concatenate([np.broadcast_to(np.array(rhs, dtype=float), (c, len(rhs))), b_extra], axis=1)
     best_x = np.zeros((c, k))
     best_rss = np.full(c, np.inf)
     for active in _active_sets(rows.tobytes(), rows.shape):
@@ -191,7 +195,7 @@ def _enumerate_general(normal: Normal, lower, upper, constraints):
         kkt[:, :k, :k] = normal.gram
         kkt[:, :k, k:] = a_s.T
         kkt[:, k:, :k] = a_s
-        vec = np.concatenate([normal.rhs, np.broadcast_to(rhs[list(active)], (c, size))], axis=1)
+        vec = np.concatenate([normal.rhs, rhs[:, list(active)]], axis=1)
         try:
             sol = np.linalg.solve(kkt, vec[..., None])[..., 0]
         except np.linalg.LinAlgError:

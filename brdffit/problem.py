@@ -52,7 +52,15 @@ class Problem:
         Parameters held at given values (linear ones may be per channel).
     """
 
-    def __init__(self, data, model, loss: str = "l2", weights=None, fixed: Mapping | None = None):
+    def __init__(
+        self,
+        data,
+        model,
+        loss: str = "l2",
+        weights=None,
+        fixed: Mapping | None = None,
+        energy_conserving: bool = False,
+    ):
         self.data = data
         self.model = get_model(model)
         self.loss = get_loss(loss)
@@ -72,6 +80,12 @@ class Problem:
         self._set_coefficients()
         self._set_targets(weights)
         self._check_size()
+        self.energy = None
+        self._constraints = self.coef_constraints
+        if energy_conserving:
+            from .energy import EnergyRows
+
+            self.energy = EnergyRows(self)
 
     # ----------------------------------------------------------- construction
     def _check_fixed(self, fixed: Mapping) -> dict:
@@ -229,6 +243,29 @@ class Problem:
             term = _as_2d(cols[i]) * np.asarray(self.fixed[name], dtype=float)
             offset = term if offset is None else offset + term
         a = _stack([cols[i] for i in self.coef_index], m, c)
+        self._constraints = self._constraints_for(shape)
+        try:
+            return self._solve_linear(shape, a, offset, m, c)
+        except np.linalg.LinAlgError:
+            # No coefficients satisfy the constraints at this shape (energy
+            # conservation with a too bright offset): infeasible, never NaN.
+            return Solution(shape, np.zeros((c, len(self.coef_index))), None, BAD_LOSS)
+
+    def _constraints_for(self, shape):
+        """The model's coefficient constraints, plus the albedo rows in energy mode."""
+        if self.energy is None:
+            return self.coef_constraints
+        rows, bound = self.energy.rows(shape)
+        if self.coef_constraints is None:
+            return rows, bound
+        a0, b0 = self.coef_constraints
+        c = self.n_channels
+        b = np.concatenate(
+            [np.broadcast_to(b0, (c, len(b0))), np.broadcast_to(bound, (c, rows.shape[0]))], axis=1
+        )
+        return np.vstack([a0, rows]), b
+
+    def _solve_linear(self, shape, a, offset, m, c) -> Solution:
         if self.loss.linear:
             # For quadratic losses the weighted residual sum of squares of the
             # linear solve is the loss: no prediction needs to be formed.
@@ -255,7 +292,7 @@ class Problem:
             _, yy = reuse if reuse is not None else weighted_target(target, w)
             return np.zeros((c, 0)), yy
         normal = normal_equations(a, target, w, reuse)
-        return solve_bounded(normal, self.coef_lower, self.coef_upper, self.coef_constraints)
+        return solve_bounded(normal, self.coef_lower, self.coef_upper, self._constraints)
 
     def _full(self, col):
         """A column as an (M,) array; constant columns are cached per value."""
