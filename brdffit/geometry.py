@@ -150,11 +150,13 @@ class Geometry:
         return np.maximum(self.wo[:, 2], MIN_COSINE)
 
     @cached_property
+    def _half_norm(self) -> np.ndarray:
+        return np.linalg.norm(self.wi + self.wo, axis=1)
+
+    @cached_property
     def half(self) -> np.ndarray:
         """Unit half vector H = (L + V) / |L + V|, shape (M, 3)."""
-        h = self.wi + self.wo
-        norm = np.linalg.norm(h, axis=1)
-        return h / np.maximum(norm, 1e-300)[:, None]
+        return (self.wi + self.wo) / np.maximum(self._half_norm, 1e-300)[:, None]
 
     @cached_property
     def cos_h(self) -> np.ndarray:
@@ -163,8 +165,10 @@ class Geometry:
 
     @cached_property
     def cos_d(self) -> np.ndarray:
-        """V.H (= L.H), the cosine that enters Fresnel."""
-        return np.clip(np.einsum("ij,ij->i", self.wo, self.half), 0.0, 1.0)
+        """V.H (= L.H), the cosine that enters Fresnel, as |L + V| / 2: the same
+        value, symmetric in L and V by construction, and without the cancellation
+        of (1 + L.V) / |L + V| when L and V are nearly opposite."""
+        return np.clip(0.5 * self._half_norm, 0.0, 1.0)
 
     @cached_property
     def sin2_h(self) -> np.ndarray:
