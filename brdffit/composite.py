@@ -58,6 +58,11 @@ def _constant_columns(model: Model) -> set[str]:
     return {name for name, col in zip(model.coefficients, design.columns) if np.ndim(col) == 0}
 
 
+def _is_diffuse(name: str, group: list, dropped: list) -> bool:
+    """A parameter dropped from any lobe of a group is the group's shared diffuse term."""
+    return any(name in dropped[i] for i in group)
+
+
 def _combined_classification(models) -> Classification:
     cls = [m.classification for m in models]
     return Classification(
@@ -136,7 +141,11 @@ def sum_of_lobes(models: list[Model]) -> Model:
             order = sorted(idx, key=lambda i: float(values[f"{labels[i]}.{key}"]))
             for dst, src in zip(idx, order):
                 for p in models[dst].params:
-                    if p.name not in dropped[dst]:
+                    # The Lambertian term kept by the first lobe belongs to the sum,
+                    # not to a lobe: it does not move with the lobes.
+                    if p.name not in dropped[dst] | dropped[src] and not _is_diffuse(
+                        p.name, idx, dropped
+                    ):
                         out[f"{labels[dst]}.{p.name}"] = values[f"{labels[src]}.{p.name}"]
         return out
 

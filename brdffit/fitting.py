@@ -169,6 +169,15 @@ class _Search:
             code = opt.last_optimize_result()
         except (nlopt.ForcedStop, nlopt.RoundoffLimited, RuntimeError, ValueError):
             code = opt.last_optimize_result()
+        except nlopt.invalid_argument:
+            # e.g. NEWUOA, which needs at least two free parameters
+            field = "global_algorithm" if stage == "global" else "local_algorithm"
+            raise FitError(
+                f"{field}={algorithm!r} cannot run on this problem with {p.dim} free shape "
+                f"parameter(s) of {p.model.name}; choose another algorithm (LN_BOBYQA works "
+                "for any number)",
+                field,
+            ) from None
         if self.error is not None:
             raise self.error
         if code == nlopt.MAXTIME_REACHED:
@@ -321,7 +330,9 @@ def fit(
     deadline = t0 + timeout if timeout is not None else float("inf")
     search = _Search(problem, max_evals, deadline, progress)
     if data.n > GLOBAL_SAMPLES and global_algorithm is not None:
-        index = np.sort(np.random.default_rng(int(seed)).choice(data.n, GLOBAL_SAMPLES, replace=False))
+        index = np.sort(
+            np.random.default_rng(int(seed)).choice(data.n, GLOBAL_SAMPLES, replace=False)
+        )
         search.global_problem = Problem(
             data.subset(index), problem.model, loss=loss,
             weights=None if weights is None else np.asarray(weights)[index],
@@ -442,9 +453,8 @@ def _result(problem: Problem, search: _Search, code, seconds: float, options: di
 
         top, err, angle = check_energy(problem.model, params)
         metrics["max_albedo"] = top
-        message += (
-            f"; energy: max directional albedo {top:.6f} (+-{err:.1e}) at {angle:g} deg"
-            + ("" if top <= 1 + 1e-3 else ", ABOVE 1 between the enforced angles")
+        message += f"; energy: max directional albedo {top:.6f} (+-{err:.1e}) at {angle:g} deg" + (
+            "" if top <= 1 + 1e-3 else ", ABOVE 1 between the enforced angles"
         )
     keep = (
         "loss",

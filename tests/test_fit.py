@@ -275,3 +275,21 @@ def test_large_data_search_globally_on_a_subsample_and_polish_on_all(monkeypatch
     assert scouted.converged and scouted.n_samples == 3000
     assert scouted.params["n"] == pytest.approx(full.params["n"], rel=1e-5)
     assert scouted.loss == pytest.approx(full.loss, rel=1e-9)
+
+
+def test_an_algorithm_that_cannot_run_on_the_problem_is_a_clear_error():
+    data = make_data("blinn", {"kd": 0.2, "ks": 1.0, "n": 30.0}, n=100)
+    with pytest.raises(FitError, match="LN_NEWUOA") as info:
+        fit(data, "blinn", local_algorithm="LN_NEWUOA")  # NEWUOA needs two parameters
+    assert info.value.field == "local_algorithm"
+
+
+def test_sum_with_a_shared_diffuse_term_reorders_only_the_lobes():
+    name = "blinn+blinn"
+    truth = {"blinn_1.kd": 0.2, "blinn_1.ks": 40.0, "blinn_2.ks": 1.5, "blinn_1.n": 2000.0,
+             "blinn_2.n": 10.0}  # fmt: skip
+    result = fit(make_data(name, truth, n=3000, noise=0.0), name)
+    assert result.params["blinn_1.n"] == pytest.approx(10.0, rel=0.01)  # broader lobe first
+    assert result.params["blinn_1.ks"] == pytest.approx(1.5, rel=0.01)
+    assert result.params["blinn_2.n"] == pytest.approx(2000.0, rel=0.01)
+    assert result.params["blinn_1.kd"] == pytest.approx(0.2, rel=0.01)  # stays the diffuse term
