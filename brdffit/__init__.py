@@ -7,6 +7,7 @@ from .geometry import Geometry
 from .io import read, write
 from .measurements import Measurements
 from .models import REGISTRY, get_model, list_models
+from .posterior import sample_posterior
 from .synth import synthesize
 
 __all__ = [
@@ -24,6 +25,7 @@ __all__ = [
     "get_model",
     "list_models",
     "read",
+    "sample_posterior",
     "synthesize",
     "write",
 ]

@@ -1,0 +1,305 @@
+"""Posterior sampling around a fit: ``sample_posterior(data, fit_result) -> Posterior``.
+
+What is sampled
+---------------
+The fit's free shape parameters, in its search space (log10 for log-scale
+ones), and, unless the data's sigma is used, the noise as ``log10(noise)``,
+with emcee (Foreman-Mackey et al. 2013, PASP 125, 306). The linear
+coefficients (kd, ks... per channel) are integrated out analytically and then
+drawn exactly for every kept sample (:mod:`brdffit.posterior_target`, which
+states the likelihood and the noise models); the moves, the start and the
+convergence rule are in :mod:`brdffit.posterior_chain`.
+
+Priors. Uniform within each parameter's bounds in the search space: uniform
+for linear-scale parameters, log-uniform for log-scale ones (uniform in
+log10); uniform in the coefficients on their bounds (kd in [0, 1]...); the
+noise uniform in log10 (Jeffreys' prior for a scale) over 3 decades either side
+of the fit's rms residual, a range that only binds for a degenerate fit.
+
+Names. Shape parameters keep their names (``alpha``), the noise is ``noise``,
+coefficients are ``name[channel]`` with the data's channel names (``kd[r]``,
+``ks[550nm]``), or plain ``kd`` when the data have one channel. Coefficients
+are those the fit solves (``model.coefficients``): for every model but
+``ashikhmin_shirley`` they are its linear parameters; for it they are
+``rd_eff = rd (1 - rs)`` and ``rs``, and the prior is uniform on their box
+``rd_eff >= 0``, ``0 <= rs <= 1``.
+
+What it does not know. A fit does not record its ``weights`` unless its
+options hold them (``fit_result.options["weights"]``), nor does the
+posterior impose ``energy_conserving``: it samples the plain model.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from .errors import FitError
+from .posterior_chain import (
+    TOL,
+    PosteriorProgress,
+    StudentIndependence,
+    laplace,
+    run_chain,
+    start_walkers,
+)
+from .posterior_result import NOISE_MEANING, Posterior
+from .posterior_target import NOISE_MODELS, Target
+from .problem import Problem
+from .result import FitResult
+
+__all__ = ["Posterior", "PosteriorProgress", "sample_posterior", "NOISE_MODELS", "NOISE_MEANING"]
+
+NOISE_NAME = "noise"
+#: Independent draws when there is nothing to sample by MCMC (no shape parameter, noise given).
+IID_DRAWS = 4000
+
+
+# ------------------------------------------------------------------- options
+def _check_options(
+    data, fit_result, walkers, steps, max_steps, max_seconds, seed, noise, progress, unknown
+):
+    if unknown:
+        name = next(iter(unknown))
+        close = difflib.get_close_matches(name, _OPTIONS, n=1)
+        hint = f" (did you mean {close[0]}?)" if close else ""
+        raise FitError(
+            f"{name!r} is not an option of sample_posterior{hint}; the options are "
+            f"{', '.join(_OPTIONS)}",
+            name,
+        )
+    if not isinstance(fit_result, FitResult):
+        raise FitError("fit_result must be the FitResult that brdffit.fit returned", "fit_result")
+    if data.n != fit_result.n_samples or tuple(data.channels) != tuple(fit_result.channels):
+        raise FitError(
+            f"the data ({data.n} samples, channels {list(data.channels)}) are not those of the "
+            f"fit ({fit_result.n_samples} samples, channels {list(fit_result.channels)})",
+            "data",
+        )
+    _whole(walkers, "walkers", 1)
+    if steps != "auto":
+        _whole(steps, "steps", 1, "or 'auto'")
+    _whole(max_steps, "max_steps", 1)
+    ok = max_seconds is None or (
+        isinstance(max_seconds, (int, float))
+        and not isinstance(max_seconds, bool)
+        and max_seconds > 0
+        and math.isfinite(max_seconds)
+    )
+    if not ok:
+        raise FitError(
+            f"max_seconds={max_seconds!r} must be a positive number of seconds or None",
+            "max_seconds",
+        )
+    if seed is not None:
+        _whole(seed, "seed", 0)
+    if noise is None:
+        noise = "given" if data.sigma is not None else "absolute"
+    if noise not in NOISE_MODELS:
+        raise FitError(f"noise={noise!r} must be one of {', '.join(NOISE_MODELS)}", "noise")
+    if noise == "given" and data.sigma is None:
+        raise FitError(
+            "noise='given' needs per-sample sigma in the data; these have none "
+            "(use noise='absolute' or 'relative' to estimate it)",
+            "noise",
+        )
+    if progress is not None and not callable(progress):
+        raise FitError("progress must be a callable taking a PosteriorProgress", "progress")
+    return noise
+
+
+def _whole(value, name: str, least: int, alternative: str = ""):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+        need = f"a whole number >= {least}" + (f" {alternative}" if alternative else "")
+        raise FitError(f"{name}={value!r} must be {need}", name)
+
+
+_OPTIONS = ("walkers", "steps", "max_steps", "max_seconds", "seed", "noise", "progress")
+
+
+# ---------------------------------------------------------------------- main
+def sample_posterior(
+    data,
+    fit_result,
+    *,
+    walkers: int = 32,
+    steps: int | str = "auto",
+    max_steps: int = 20000,
+    max_seconds: float | None = 60.0,
+    seed: int | None = None,
+    noise: str | None = None,
+    progress: Callable[[PosteriorProgress], None] | None = None,
+    **unknown: Any,
+) -> Posterior:
+    """Sample the posterior of the parameters of a fit.
+
+    Parameters
+    ----------
+    data : Measurements
+        The data the fit was made on.
+    fit_result : FitResult
+    walkers : int
+        emcee walkers; at least twice the sampled dimensions (and 8).
+    steps : int or "auto"
+        ``"auto"``: run until converged (50 autocorrelation times after burn-in)
+        or until ``max_steps`` or ``max_seconds``; an int: exactly that many steps
+        (unless ``max_seconds`` ends the run first).
+    max_steps : int
+        Cap of ``steps="auto"``.
+    max_seconds : float or None
+        Wall-clock budget of the whole call; the run stops there, not converged.
+    seed : int, optional
+        Seeds the walkers, the moves and the coefficient draws (default: the fit's
+        seed); the same seed gives the same samples.
+    noise : {"given", "absolute", "relative"}, optional
+        Default ``"given"`` when the data have sigma, else ``"absolute"``
+        (:mod:`brdffit.posterior_target`).
+    progress : callable, optional
+        Called with a :class:`PosteriorProgress` at every convergence check.
+
+    Returns
+    -------
+    Posterior
+    """
+    t0 = time.perf_counter()
+    noise = _check_options(
+        data, fit_result, walkers, steps, max_steps, max_seconds, seed, noise, progress, unknown
+    )
+    seed = int(fit_result.options.get("seed", 0) if seed is None else seed)
+    deadline = t0 + max_seconds if max_seconds is not None else float("inf")
+    problem, target = _target(data, fit_result, noise)
+    if target.dim == 0 and target.k == 0:
+        raise FitError(
+            "every parameter of the fit is fixed and the noise is given: "
+            "there is nothing to sample",
+            "fixed",
+        )
+    if target.dim and walkers < max(8, 2 * target.dim):
+        raise FitError(
+            f"walkers={walkers} is too few: emcee needs at least {max(8, 2 * target.dim)} "
+            f"(8, and twice the {target.dim} sampled dimensions)",
+            "walkers",
+        )
+    rng = np.random.default_rng([seed, 7])
+    if target.dim == 0:
+        theta, chain, info = np.zeros((IID_DRAWS, 0)), np.zeros((0, walkers, 0)), None
+    else:
+        mode, cov = laplace(target, target.theta_fit)
+        start = start_walkers(target, mode, cov, walkers, rng)
+        proposal = StudentIndependence(mode, cov)
+        info = run_chain(target, start, proposal, steps, max_steps, deadline, seed, progress, t0)
+        chain = info.chain
+        kept = chain[info.burn :: _thin(info)] if info.burn < len(chain) else chain[-1:]
+        theta = kept.reshape(-1, target.dim)
+    names, samples = _samples(problem, target, theta, rng)
+    common = dict(
+        model=problem.model.name,
+        loss=problem.loss.name,
+        noise=noise,
+        names=names,
+        samples=samples,
+        chain=chain,
+        n_walkers=walkers,
+        seed=seed,
+        channels=tuple(problem.data.channels),
+        sampled=tuple(p.name for p in problem.free_shape) + (NOISE_NAME,) * target.estimates_noise,
+        sampled_log=tuple(bool(v) for v in target.log_scale) + (True,) * target.estimates_noise,
+    )
+    return _posterior(common, info, max_seconds, time.perf_counter() - t0)
+
+
+def _target(data, fit_result, noise):
+    """The fit's problem rebuilt on the data, and the log-posterior over it."""
+    weights = fit_result.options.get("weights")
+    problem = Problem(
+        data,
+        fit_result.model,
+        loss=fit_result.loss_name,
+        weights=weights,
+        fixed=dict(fit_result.fixed),
+    )
+    if weights is not None:
+        weights = np.asarray(weights, dtype=float) / np.mean(weights)
+    x_fit = problem.x_from_params(fit_result.params)
+    return problem, Target(problem, noise, x_fit, weights)
+
+
+def _thin(info) -> int:
+    """Keep one step in ``round(tau)``: the kept samples are then nearly independent, and
+    each costs one more evaluation of the design (for its coefficient draw)."""
+    tau = info.tau[np.isfinite(info.tau)]
+    return max(1, round(float(tau.max()))) if len(tau) else 1
+
+
+def _samples(problem, target, theta, rng):
+    """Columns: coefficients per channel, free shape parameters, noise."""
+    channels = problem.data.channels
+    coefs = target.draw_coefficients(theta, rng)
+    names, columns = [], []
+    for j, coef in enumerate(problem.free_coefs):
+        for c, ch in enumerate(channels):
+            names.append(coef if len(channels) == 1 else f"{coef}[{ch}]")
+            columns.append(coefs[:, c, j])
+    shape = target.shape_values(theta[:, : target.d])
+    for i, p in enumerate(problem.free_shape):
+        names.append(p.name)
+        columns.append(shape[:, i])
+    if target.estimates_noise:
+        names.append(NOISE_NAME)
+        columns.append(10.0 ** theta[:, target.d])
+    return tuple(names), np.column_stack(columns) if columns else np.zeros((len(theta), 0))
+
+
+def _posterior(common: dict, info, max_seconds, seconds: float) -> Posterior:
+    if info is None:
+        message = (
+            "converged: nothing to sample by MCMC (no free shape parameter, noise given); "
+            f"{len(common['samples'])} independent draws of the coefficients"
+        )
+        return Posterior(
+            **common,
+            burn=0,
+            thin=1,
+            n_steps=0,
+            autocorr_time={},
+            effective_samples=len(common["samples"]),
+            acceptance_fraction=1.0,
+            converged=True,
+            message=message,
+            seconds=seconds,
+        )
+    n_post = info.steps - info.burn
+    tau_max = float(np.nanmax(info.tau)) if np.isfinite(info.tau).any() else float("nan")
+    ess = int(info.effective.min()) if len(info.effective) else 0
+    length = f"{n_post / tau_max:.0f}" if math.isfinite(tau_max) and n_post > 0 else "no"
+    facts = (
+        f"{info.steps} steps, burn-in {info.burn}, {length} autocorrelation times after "
+        f"burn-in, {ess} effective samples"
+    )
+    if info.converged:
+        message = f"converged: {facts}"
+    else:
+        why = {
+            "time": f"stopped by the time limit max_seconds={max_seconds}",
+            "steps": "stopped at max_steps",
+            "": "ran the steps asked for",
+        }[info.stopped]
+        message = f"not converged: {why}; {facts}, {TOL} are needed"
+    taus = {name: float(t) for name, t in zip(common["sampled"], info.tau)}
+    return Posterior(
+        **common,
+        burn=info.burn,
+        thin=_thin(info),
+        n_steps=info.steps,
+        autocorr_time=taus,
+        effective_samples=ess,
+        acceptance_fraction=info.acceptance,
+        converged=info.converged,
+        message=message,
+        seconds=seconds,
+    )
