@@ -1,0 +1,34 @@
+# The brdffit HTTP service: FastAPI on uvicorn, jobs in SQLite under /data.
+#   docker build -t brdffit .
+#   docker run --rm -p 8000:8000 -v brdffit-data:/data brdffit
+FROM python:3.11-slim
+
+ENV PYTHONDONTWRITEBYTECODE=1 \
+    PYTHONUNBUFFERED=1 \
+    PIP_NO_CACHE_DIR=1 \
+    PIP_DISABLE_PIP_VERSION_CHECK=1 \
+    MPLBACKEND=Agg \
+    MPLCONFIGDIR=/tmp/matplotlib \
+    BRDFFIT_STORE_PATH=/data/jobs.sqlite3 \
+    BRDFFIT_WORKERS=2
+
+WORKDIR /app
+# The package and its dependencies (all of them ship wheels: nothing to compile).
+COPY pyproject.toml README.md ./
+COPY brdffit ./brdffit
+COPY service ./service
+RUN pip install . \
+    && useradd --create-home --uid 10001 brdffit \
+    && mkdir -p /data \
+    && chown brdffit:brdffit /data
+
+USER brdffit
+VOLUME ["/data"]
+EXPOSE 8000
+
+HEALTHCHECK --interval=30s --timeout=5s --start-period=30s --retries=3 \
+    CMD ["python", "-c", "import sys, urllib.request; sys.exit(urllib.request.urlopen('http://127.0.0.1:8000/health', timeout=4).status != 200)"]
+
+# One uvicorn process: it owns the job store (it marks the jobs of a previous run
+# interrupted at start); BRDFFIT_WORKERS processes run the jobs.
+CMD ["brdffit", "serve", "--host", "0.0.0.0", "--port", "8000"]

@@ -1,0 +1,352 @@
+"""Bodies and answers of the HTTP service, one to one with the library's calls.
+
+- :class:`DataIn` is :meth:`brdffit.Measurements.from_angles` (angles in degrees);
+- :class:`FitOptions` holds the keyword options of :func:`brdffit.fit`, and
+  :class:`PosteriorOptions` those of :func:`brdffit.posterior.sample_posterior`;
+- :class:`FitResultOut`, :class:`PosteriorOut` and :class:`ModelOut` are the
+  ``to_dict()`` of :class:`~brdffit.result.FitResult`, of the posterior and of
+  :class:`~brdffit.models.base.Model`. Answers accept extra keys, so that a
+  field added to a ``to_dict()`` reaches clients without a change here.
+"""
+
+from __future__ import annotations
+
+import inspect
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+import brdffit
+from brdffit.losses import LOSSES
+from brdffit.posterior import sample_posterior
+
+__all__ = [
+    "DataIn",
+    "ErrorItem",
+    "ErrorOut",
+    "EvaluateIn",
+    "EvaluateOut",
+    "FitIn",
+    "FitOptions",
+    "FitResultOut",
+    "HealthOut",
+    "JobOut",
+    "JobProgress",
+    "ModelOut",
+    "PosteriorOptions",
+    "PosteriorOut",
+]
+
+LossName = Literal[tuple(LOSSES)]  # type: ignore[valid-type]
+Number = float
+PerChannel = float | list[float]
+#: Answers say null where a number is not finite (JSON has no NaN).
+MaybeFloat = float | None
+PerChannelOut = MaybeFloat | list[MaybeFloat]
+#: Seeds go to numpy and nlopt, which take unsigned 32-bit integers.
+SEED_MAX = 2**32 - 1
+JobStatus = Literal["queued", "running", "done", "failed", "interrupted"]
+
+
+def _defaults(function) -> dict:
+    """The library's defaults, so that a field left out means what it means in Python."""
+    return {
+        name: p.default
+        for name, p in inspect.signature(function).parameters.items()
+        if p.default is not inspect.Parameter.empty
+    }
+
+
+FIT = _defaults(brdffit.fit)
+POSTERIOR = _defaults(sample_posterior)
+
+
+def _example_data() -> dict:
+    """A small blinn dataset (in the plane of incidence), made by the library itself."""
+    angles = ([30.0] * 6 + [60.0] * 6, [0.0] * 12, [0, 20, 30, 40, 60, 75] * 2, [180.0] * 12)
+    params = {"kd": [0.4, 0.3, 0.2], "ks": 0.6, "n": 60.0}
+    data = brdffit.synthesize("blinn", params, geometry=angles, noise=0.01, seed=1)
+    out = data.to_dict(include_data=True)
+    return {
+        "theta_i": out["theta_i"],
+        "phi_i": out["phi_i"],
+        "theta_o": out["theta_o"],
+        "phi_o": out["phi_o"],
+        "values": [[round(v, 6) for v in row] for row in out["values"]],
+        "channels": list(data.channels),
+    }
+
+
+EXAMPLE_DATA = _example_data()
+
+
+class DataIn(BaseModel):
+    """Measured reflectance as arrays: :meth:`brdffit.Measurements.from_angles`.
+
+    Angles in degrees (MODELS.md): ``theta`` from the normal in [0, 180] (past 90
+    is below the horizon), ``phi`` any finite number. ``values`` holds one number
+    per sample, or one row of C numbers (one per channel) per sample.
+    """
+
+    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [EXAMPLE_DATA]})
+
+    theta_i: list[Number] = Field(min_length=1, description="Incidence polar angles, degrees.")
+    phi_i: list[Number] = Field(min_length=1, description="Incidence azimuths, degrees.")
+    theta_o: list[Number] = Field(min_length=1, description="Outgoing polar angles, degrees.")
+    phi_o: list[Number] = Field(min_length=1, description="Outgoing azimuths, degrees.")
+    values: list[Number] | list[list[Number]] = Field(
+        min_length=1, description="BRDF values, (N,) or (N, C), in `units`."
+    )
+    channels: list[str] | None = Field(None, description="One name per column of `values`.")
+    sigma: list[Number] | list[list[Number]] | None = Field(
+        None, description="Standard deviation of each value: (N,) or (N, C), positive."
+    )
+    source: str = Field("request", max_length=500, description="Where the data came from.")
+    units: str = Field("1/sr", max_length=50, description="Units of the values.")
+
+
+class PosteriorOptions(BaseModel):
+    """Options of :func:`brdffit.posterior.sample_posterior`."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    walkers: int = Field(POSTERIOR["walkers"], ge=1, le=1024, description="emcee walkers.")
+    steps: int | Literal["auto"] = Field(
+        POSTERIOR["steps"],
+        description='"auto" (until converged) or an exact number of steps (>= 1).',
+    )
+    max_steps: int = Field(
+        POSTERIOR["max_steps"], ge=1, le=1_000_000, description='Cap of steps="auto".'
+    )
+    max_seconds: float | None = Field(
+        POSTERIOR["max_seconds"],
+        gt=0,
+        le=1e6,
+        description="Wall-clock budget (capped by the server's limit).",
+    )
+    seed: int | None = Field(
+        POSTERIOR["seed"], ge=0, le=SEED_MAX, description="Default: the fit's seed."
+    )
+    noise: Literal["given", "absolute", "relative"] | None = Field(
+        POSTERIOR["noise"], description='Noise model; default "given" when the data have sigma.'
+    )
+
+
+class FitOptions(BaseModel):
+    """Keyword options of :func:`brdffit.fit`."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    loss: LossName | None = Field(
+        FIT["loss"], description="The loss minimised (brdffit.losses); default: the library's."
+    )
+    fixed: dict[str, PerChannel] | None = Field(None, description="Parameters held fixed.")
+    free: list[str] = Field(
+        default_factory=list, max_length=50, description="Parameters a model holds by default "
+        "(he's eta, k, aperture) that the fit should search."
+    )  # fmt: skip
+    weights: list[Number] | None = Field(None, description="One weight per sample (>= 0).")
+    start: dict[str, Number] | None = Field(None, description="Initial guess of shape params.")
+    seed: int = Field(FIT["seed"], ge=0, le=SEED_MAX, description="Same seed, same result.")
+    timeout: float | None = Field(
+        None, gt=0, le=1e6, description="Seconds (capped by the server's limit)."
+    )
+    max_evals: int | None = Field(None, ge=1, le=10**8, description="Cap on evaluations.")
+    global_evals: int | None = Field(None, ge=1, le=10**7, description="Global-stage budget.")
+    local_evals: int | None = Field(None, ge=1, le=10**7, description="Budget of each polish.")
+    restarts: int = Field(
+        FIT["restarts"], ge=0, le=50, description="Further polishes from distinct points."
+    )
+    global_algorithm: str | None = Field(
+        FIT["global_algorithm"],
+        max_length=40,
+        description="nlopt global algorithm; null skips it.",
+    )
+    local_algorithm: str = Field(
+        FIT["local_algorithm"], max_length=40, description="nlopt local (LN_)."
+    )
+    energy_conserving: bool = Field(
+        FIT["energy_conserving"], description="Albedo at most 1 at every incidence."
+    )
+    uncertainty: bool = Field(False, description="Also sample the posterior.")
+    posterior_options: PosteriorOptions | None = Field(
+        None, description="Options of the posterior, when `uncertainty` is true."
+    )
+
+
+class FitIn(FitOptions):
+    """``brdffit.fit(data, model, **options)``."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={
+            "examples": [
+                {"model": "blinn", "data": EXAMPLE_DATA},
+                {"model": "blinn", "data": EXAMPLE_DATA, "loss": "log", "seed": 3},
+                {"model": "blinn", "data": EXAMPLE_DATA, "fixed": {"n": 60.0}},
+            ]
+        },
+    )
+
+    model: str = Field(
+        max_length=500, description='A model name, or a sum such as "lambert+blinn".'
+    )
+    data: DataIn
+
+
+class EvaluateIn(BaseModel):
+    """``Model.evaluate(wi, wo, params)`` at direction pairs given as angles (degrees)."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={
+            "examples": [
+                {
+                    "model": "ward",
+                    "params": {"kd": [0.3, 0.2, 0.1], "ks": 0.08, "alpha": 0.12},
+                    "theta_i": [30, 30],
+                    "phi_i": [0, 0],
+                    "theta_o": [30, 10],
+                    "phi_o": [180, 180],
+                }
+            ]
+        },
+    )
+
+    model: str = Field(max_length=500, description="A model name or a sum of lobes.")
+    params: dict[str, PerChannel] = Field(
+        default_factory=dict, description="Parameter values; missing ones take the defaults."
+    )
+    theta_i: list[Number] = Field(min_length=1)
+    phi_i: list[Number] = Field(min_length=1)
+    theta_o: list[Number] = Field(min_length=1)
+    phi_o: list[Number] = Field(min_length=1)
+
+
+class EvaluateOut(BaseModel):
+    """BRDF values (1/sr), (N,) or (N, C) when linear params are given per channel."""
+
+    model_config = ConfigDict(extra="allow")
+
+    model: str
+    params: dict[str, PerChannelOut]
+    values: list[MaybeFloat] | list[list[MaybeFloat]]
+    units: str = "1/sr"
+
+
+class ParamOut(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+    name: str
+    lower: float
+    upper: float
+    default: float
+    log_scale: bool
+    linear: bool
+    unit: str
+    doc: str
+
+
+class ModelOut(BaseModel):
+    """``Model.to_dict()``, and ``properties`` (brdffit.properties.model_properties) if asked."""
+
+    model_config = ConfigDict(extra="allow")
+
+    name: str
+    params: list[ParamOut]
+    classification: dict[str, Any]
+    reference: str
+    reciprocal: bool
+    doc: str
+    properties: dict[str, Any] | None = None
+
+
+class PosteriorOut(BaseModel):
+    """``Posterior.to_dict()``: summary (median, p16, p84, mean, std), diagnostics."""
+
+    model_config = ConfigDict(extra="allow")
+
+    model: str
+    names: list[str]
+    summary: dict[str, dict[str, MaybeFloat]]
+    converged: bool
+    message: str
+
+
+class FitResultOut(BaseModel):
+    """``FitResult.to_dict()``."""
+
+    model_config = ConfigDict(extra="allow")
+
+    model: str
+    params: dict[str, PerChannelOut]
+    loss: MaybeFloat
+    loss_name: str
+    metrics: dict[str, MaybeFloat]
+    n_samples: int
+    n_channels: int
+    n_values: int
+    n_params: int
+    n_evals: int
+    seconds: float
+    converged: bool
+    message: str
+    channels: list[str]
+    fixed: dict[str, Any]
+    options: dict[str, Any]
+    at_bounds: list[str]
+    posterior: PosteriorOut | None = None
+
+
+class ErrorItem(BaseModel):
+    field: str | None = Field(description="The input that is wrong, as a dotted path.")
+    message: str
+
+
+class ErrorOut(BaseModel):
+    """Every 4xx and 5xx answer: what is wrong, and where."""
+
+    field: str | None = Field(description="The input that is wrong, as a dotted path.")
+    message: str = Field(description="A sentence saying what is wrong and what is needed.")
+    kind: str = Field(description="The error's class (DataError, ValidationError...).")
+    errors: list[ErrorItem] = Field(default_factory=list, description="Every problem found.")
+
+
+class JobProgress(BaseModel):
+    """The last progress report of a running job."""
+
+    model_config = ConfigDict(extra="allow")
+
+    stage: str = Field(description='"global", "local 1/3"... of the fit, or "posterior".')
+    seconds: float = Field(description="Seconds since the stage's call started.")
+    n_evals: int | None = None
+    best_loss: float | None = None
+    steps: int | None = None
+    max_steps: int | None = None
+    autocorr_time: float | None = None
+    effective_samples: int | None = None
+
+
+class JobOut(BaseModel):
+    """A job: its state, its last progress, and its result or error."""
+
+    id: str
+    status: JobStatus = Field(
+        description="queued, running, done, failed, or interrupted (the server stopped "
+        "while it ran: POST /jobs/{id}/resubmit runs it again)."
+    )
+    model: str
+    created: str
+    started: str | None = None
+    finished: str | None = None
+    attempt: int = Field(description="How many times the job was submitted.")
+    progress: JobProgress | None = None
+    result: FitResultOut | None = None
+    error: ErrorOut | None = None
+
+
+class HealthOut(BaseModel):
+    status: Literal["ok"]
+    version: str
+    workers: int
+    jobs: dict[str, int] = Field(description="Number of jobs in each status.")

@@ -1,0 +1,236 @@
+"""Jobs and their results in SQLite: durable across restarts and crashes.
+
+One table, ``jobs``; one row per job, written before the service answers 202,
+so that nothing a client was told is accepted can be lost. WAL mode lets the
+worker processes write progress while the web process reads; ``synchronous=
+FULL`` makes every commit survive a crash of the machine, not only of the
+process.
+
+Every write of a worker names the job's ``attempt``: a job resubmitted, or
+marked ``interrupted`` by a restart, no longer accepts writes from the run it
+had before (an orphaned worker of a killed server cannot overwrite it).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sqlite3
+import tempfile
+import time
+import uuid
+from contextlib import closing, contextmanager
+from datetime import datetime, timezone
+from pathlib import Path
+
+import brdffit
+
+__all__ = ["JobStore", "data_from_bytes", "data_to_bytes", "iso"]
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS jobs (
+    id TEXT PRIMARY KEY,
+    status TEXT NOT NULL,
+    model TEXT NOT NULL,
+    options TEXT NOT NULL,
+    data BLOB NOT NULL,
+    created REAL NOT NULL,
+    started REAL,
+    finished REAL,
+    attempt INTEGER NOT NULL,
+    progress TEXT,
+    result TEXT,
+    error TEXT
+);
+CREATE INDEX IF NOT EXISTS jobs_status ON jobs (status);
+"""
+STATUSES = ("queued", "running", "done", "failed", "interrupted")
+INTERRUPTED = (
+    "the server stopped while this job ran; POST /jobs/{id}/resubmit runs it again "
+    "(its inputs are kept)"
+)
+
+
+def iso(seconds: float | None) -> str | None:
+    """ISO 8601 time in UTC of a POSIX timestamp."""
+    if seconds is None:
+        return None
+    return datetime.fromtimestamp(seconds, timezone.utc).isoformat(timespec="milliseconds")
+
+
+def data_to_bytes(data: brdffit.Measurements) -> bytes:
+    """Measurements as the bytes of a brdffit ``.npz`` archive (lossless, no pickle)."""
+    fd, path = tempfile.mkstemp(suffix=".npz")
+    os.close(fd)
+    try:
+        brdffit.write(path, data, format="npz")
+        return Path(path).read_bytes()
+    finally:
+        os.unlink(path)
+
+
+def data_from_bytes(blob: bytes) -> brdffit.Measurements:
+    fd, path = tempfile.mkstemp(suffix=".npz")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(blob)
+        return brdffit.read(path, format="npz")
+    finally:
+        os.unlink(path)
+
+
+class JobStore:
+    """The SQLite file of jobs at ``path`` (created with its folder if absent)."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with self._connect() as db:
+            db.execute("PRAGMA journal_mode=WAL")
+            db.executescript(SCHEMA)
+
+    @contextmanager
+    def _connect(self):
+        # One short-lived connection per operation: handlers run on several threads
+        # and workers in other processes; opening a SQLite file costs microseconds.
+        with closing(sqlite3.connect(self.path, timeout=30.0, isolation_level=None)) as db:
+            db.row_factory = sqlite3.Row
+            db.execute("PRAGMA synchronous=FULL")
+            db.execute("PRAGMA busy_timeout=30000")
+            yield db
+
+    # ------------------------------------------------------------ web process
+    def create(self, model: str, options: dict, data: bytes) -> dict:
+        job_id = uuid.uuid4().hex
+        with self._connect() as db:
+            db.execute(
+                "INSERT INTO jobs (id, status, model, options, data, created, attempt) "
+                "VALUES (?, 'queued', ?, ?, ?, ?, 1)",
+                (job_id, model, json.dumps(options), sqlite3.Binary(data), time.time()),
+            )
+        return self.get(job_id)
+
+    def get(self, job_id: str) -> dict | None:
+        """The job as a dict (without its inputs), or None."""
+        with self._connect() as db:
+            row = db.execute(
+                "SELECT id, status, model, created, started, finished, attempt, progress, "
+                "result, error FROM jobs WHERE id = ?",
+                (job_id,),
+            ).fetchone()
+        return None if row is None else _public(row)
+
+    def list(self, status: str | None = None, limit: int = 100) -> list[dict]:
+        query = "SELECT id, status, model, created, started, finished, attempt FROM jobs"
+        args: tuple = ()
+        if status is not None:
+            query += " WHERE status = ?"
+            args = (status,)
+        with self._connect() as db:
+            rows = db.execute(query + " ORDER BY created DESC LIMIT ?", (*args, limit))
+            return [_public(row) for row in rows.fetchall()]
+
+    def delete(self, job_id: str) -> bool:
+        with self._connect() as db:
+            return db.execute("DELETE FROM jobs WHERE id = ?", (job_id,)).rowcount > 0
+
+    def counts(self) -> dict:
+        with self._connect() as db:
+            rows = db.execute("SELECT status, COUNT(*) FROM jobs GROUP BY status").fetchall()
+        return {status: 0 for status in STATUSES} | {row[0]: row[1] for row in rows}
+
+    def recover(self) -> list[tuple[str, int]]:
+        """At start-up: running jobs become ``interrupted``; queued ones are returned to
+        be submitted again (they never started, so running them is what was promised)."""
+        error = json.dumps({"field": None, "message": INTERRUPTED, "kind": "Interrupted"})
+        with self._connect() as db:
+            db.execute(
+                "UPDATE jobs SET status = 'interrupted', finished = ?, error = ? "
+                "WHERE status = 'running'",
+                (time.time(), error),
+            )
+            rows = db.execute(
+                "SELECT id, attempt FROM jobs WHERE status = 'queued' ORDER BY created"
+            ).fetchall()
+        return [(row[0], row[1]) for row in rows]
+
+    def requeue(self, job_id: str) -> int | None:
+        """Queue an interrupted or failed job again; its new attempt number, or None."""
+        with self._connect() as db:
+            changed = db.execute(
+                "UPDATE jobs SET status = 'queued', attempt = attempt + 1, started = NULL, "
+                "finished = NULL, progress = NULL, result = NULL, error = NULL "
+                "WHERE id = ? AND status IN ('interrupted', 'failed')",
+                (job_id,),
+            ).rowcount
+            if not changed:
+                return None
+            return db.execute("SELECT attempt FROM jobs WHERE id = ?", (job_id,)).fetchone()[0]
+
+    def interrupt(self, job_id: str, attempt: int, message: str) -> None:
+        """Mark a queued or running attempt interrupted (its worker died)."""
+        error = json.dumps({"field": None, "message": message, "kind": "Interrupted"})
+        with self._connect() as db:
+            db.execute(
+                "UPDATE jobs SET status = 'interrupted', finished = ?, error = ? "
+                "WHERE id = ? AND attempt = ? AND status IN ('queued', 'running')",
+                (time.time(), error, job_id, attempt),
+            )
+
+    # --------------------------------------------------------- worker process
+    def start(self, job_id: str, attempt: int):
+        """Claim a queued attempt: ``(model, options, data bytes)``, or None if it is gone."""
+        with self._connect() as db:
+            claimed = db.execute(
+                "UPDATE jobs SET status = 'running', started = ? "
+                "WHERE id = ? AND attempt = ? AND status = 'queued'",
+                (time.time(), job_id, attempt),
+            ).rowcount
+            if not claimed:
+                return None
+            row = db.execute(
+                "SELECT model, options, data FROM jobs WHERE id = ?", (job_id,)
+            ).fetchone()
+        return row["model"], json.loads(row["options"]), bytes(row["data"])
+
+    def progress(self, job_id: str, attempt: int, progress: dict) -> bool:
+        """Record progress; False when the attempt is no longer running (deleted...)."""
+        with self._connect() as db:
+            return (
+                db.execute(
+                    "UPDATE jobs SET progress = ? WHERE id = ? AND attempt = ? "
+                    "AND status = 'running'",
+                    (json.dumps(progress), job_id, attempt),
+                ).rowcount
+                > 0
+            )
+
+    def finish(self, job_id: str, attempt: int, result=None, error=None) -> bool:
+        """Store the result (status done) or the error (status failed) of an attempt."""
+        status = "done" if error is None else "failed"
+        with self._connect() as db:
+            return (
+                db.execute(
+                    "UPDATE jobs SET status = ?, finished = ?, result = ?, error = ? "
+                    "WHERE id = ? AND attempt = ? AND status = 'running'",
+                    (
+                        status,
+                        time.time(),
+                        None if result is None else json.dumps(result),
+                        None if error is None else json.dumps(error),
+                        job_id,
+                        attempt,
+                    ),
+                ).rowcount
+                > 0
+            )
+
+
+def _public(row: sqlite3.Row) -> dict:
+    out = {key: row[key] for key in row.keys()}
+    for key in ("created", "started", "finished"):
+        out[key] = iso(out[key])
+    for key in ("progress", "result", "error"):
+        if key in out:
+            out[key] = None if out[key] is None else json.loads(out[key])
+    return out
