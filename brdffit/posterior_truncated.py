@@ -94,7 +94,7 @@ def _start(mean, lower, upper, rows, bounds):
         return x
     lo = np.where(np.isfinite(lower), lower, 0.0)
     excess = (x - lo) @ rows.T  # how far each row is from its value at the corner
-    room = bounds - lo @ rows
+    room = bounds - rows @ lo
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = np.where(excess > room, room / excess, 1.0).min(axis=-1, initial=1.0)
     return lo + np.clip(scale, 0.0, 1.0)[:, None] * (x - lo)
