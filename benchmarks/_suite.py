@@ -22,10 +22,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-import brdffit  # noqa: E402
-from brdffit.models import REGISTRY  # noqa: E402
 from conftest import hemisphere_pairs, random_params  # noqa: E402
 from test_fit import make_data  # noqa: E402
+
+import brdffit  # noqa: E402
+from brdffit.models import REGISTRY  # noqa: E402
 
 CORNELL = ROOT.parent / "shared" / "data" / "cornell"
 CORNELL_FILES = ["garnet_red.astm", "krylon_blue.astm", "acryl_blue.brdf"]
@@ -43,7 +44,12 @@ class Case:
 def synthetic_cases() -> list[Case]:
     truth = json.loads((ROOT / "data_synthetic" / "truth.json").read_text())["files"]
     return [
-        Case(f"synthetic/{name}", brdffit.read(ROOT / "data_synthetic" / name), e["model"], e["params"])
+        Case(
+            f"synthetic/{name}",
+            brdffit.read(ROOT / "data_synthetic" / name),
+            e["model"],
+            e["params"],
+        )
         for name, e in sorted(truth.items())
     ]
 
@@ -69,8 +75,14 @@ def random_cases(per_model: int = 3, seed: int = 5) -> list[Case]:
             continue
         for k in range(per_model):
             truth = random_params(model, rng)
-            out.append(Case(f"random/{name}/{k}", make_data(name, truth, n=800, noise=0.0, seed=k),
-                            name, truth))
+            out.append(
+                Case(
+                    f"random/{name}/{k}",
+                    make_data(name, truth, n=800, noise=0.0, seed=k),
+                    name,
+                    truth,
+                )
+            )
     return out
 
 
@@ -99,4 +111,6 @@ def machine() -> str:
                 break
     except OSError:
         pass
-    return f"{cpu}, {os.cpu_count()} cores, numpy {np.__version__}, Python {sys.version.split()[0]}"
+    return (
+        f"{cpu}, {os.cpu_count()} cores, numpy {np.__version__}, Python {sys.version.split()[0]}"
+    )

@@ -57,12 +57,16 @@ def table(rows, with_scipy: bool):
     print(head)
     print("|" + "---|" * (head.count("|") - 1))
     for row in rows:
-        line = (f"| {row['case'].label} | {row['t_ours']:.3f} | {row['ours'].n_evals} | "
-                f"{'yes' if success(row, 'ours') else 'NO'} |")
+        line = (
+            f"| {row['case'].label} | {row['t_ours']:.3f} | {row['ours'].n_evals} | "
+            f"{'yes' if success(row, 'ours') else 'NO'} |"
+        )
         if with_scipy:
-            line += (f" {row['t_scipy']:.2f} | {row['scipy_evals']} | "
-                     f"{'yes' if success(row, 'scipy') else 'NO'} | "
-                     f"{row['t_scipy'] / row['t_ours']:.0f}x |")
+            line += (
+                f" {row['t_scipy']:.2f} | {row['scipy_evals']} | "
+                f"{'yes' if success(row, 'scipy') else 'NO'} | "
+                f"{row['t_scipy'] / row['t_ours']:.0f}x |"
+            )
         print(line)
 
 
@@ -70,15 +74,24 @@ def summary(rows, with_scipy: bool):
     n = len(rows)
     ok = sum(success(r, "ours") for r in rows)
     synth = [r for r in rows if r["case"].truth is not None]
-    print(f"\nbrdffit: {ok}/{n} succeeded; synthetic recovery "
-          f"{sum(success(r, 'ours') for r in synth)}/{len(synth)}; "
-          f"total {sum(r['t_ours'] for r in rows):.1f} s, median {np.median([r['t_ours'] for r in rows]):.3f} s")
+    print(
+        f"\nbrdffit: {ok}/{n} succeeded; synthetic recovery "
+        f"{sum(success(r, 'ours') for r in synth)}/{len(synth)}; "
+        f"total {sum(r['t_ours'] for r in rows):.1f} s, "
+        f"median {np.median([r['t_ours'] for r in rows]):.3f} s"
+    )
     if with_scipy:
         ok_s = sum(success(r, "scipy") for r in rows)
         ratios = [r["t_scipy"] / r["t_ours"] for r in rows]
-        print(f"scipy least_squares: {ok_s}/{n} succeeded; total {sum(r['t_scipy'] for r in rows):.1f} s")
-        print(f"speed-up per problem: median {np.median(ratios):.0f}x, min {min(ratios):.0f}x; "
-              f"total time ratio {sum(r['t_scipy'] for r in rows) / sum(r['t_ours'] for r in rows):.0f}x")
+        print(
+            f"scipy least_squares: {ok_s}/{n} succeeded; "
+            f"total {sum(r['t_scipy'] for r in rows):.1f} s"
+        )
+        print(
+            f"speed-up per problem: median {np.median(ratios):.0f}x, min {min(ratios):.0f}x; "
+            "total time ratio "
+            f"{sum(r['t_scipy'] for r in rows) / sum(r['t_ours'] for r in rows):.0f}x"
+        )
 
 
 def timed(fn, repeats: int) -> float:
@@ -97,12 +110,24 @@ def targets(repeats: int):
         for f in ["garnet_red.astm", "krylon_blue.astm", "acryl_blue.brdf"]:
             data = brdffit.read(CORNELL / f)
             t = timed(lambda d=data: brdffit.fit(d, "cook_torrance"), repeats)
-            print(f"| cook_torrance on {f} (1439 x 31) | {t:.3f} | 1 | {'yes' if t < 1 else 'NO'} |")
+            print(
+                f"| cook_torrance on {f} (1439 x 31) | {t:.3f} | 1 | {'yes' if t < 1 else 'NO'} |"
+            )
     truth = {"kd": [0.2, 0.3, 0.4], "ks": [0.5, 0.6, 0.7], "m": 0.15, "eta": 1.6}
-    big = brdffit.synthesize("cook_torrance", truth, geometry="hemisphere", n=100_000,
-                             noise=0.01, seed=1, channels=["r", "g", "b"])
+    big = brdffit.synthesize(
+        "cook_torrance",
+        truth,
+        geometry="hemisphere",
+        n=100_000,
+        noise=0.01,
+        seed=1,
+        channels=["r", "g", "b"],
+    )
     t = timed(lambda: brdffit.fit(big, "cook_torrance"), max(1, repeats // 2))
-    print(f"| cook_torrance on 100,000 samples x 3 channels | {t:.3f} | 10 | {'yes' if t < 10 else 'NO'} |")
+    print(
+        f"| cook_torrance on 100,000 samples x 3 channels | {t:.3f} | 10 | "
+        f"{'yes' if t < 10 else 'NO'} |"
+    )
 
 
 def main():

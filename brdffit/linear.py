@@ -15,8 +15,11 @@ the least residual is the optimum (the problem is convex, so the best feasible
 stationary point of a face is the global minimum). Everything is expressed
 through the Gram matrix ``A^T W A`` and ``A^T W y``, so the residual sum of
 squares comes out without forming residuals (its absolute error is the
-round-off of ``y^T W y``, about 1e-15 of it: far below the noise of any data). Larger K falls back to
-:func:`scipy.optimize.lsq_linear` per channel.
+round-off of ``y^T W y``, about 1e-15 of it: far below the noise of any
+data). Larger K falls back to :func:`scipy.optimize.lsq_linear` per channel.
+Further linear inequality rows (Ashikhmin-Shirley's triangle, energy
+conservation) are handled by enumerating active sets of rows and solving the
+KKT system of each.
 """
 
 from __future__ import annotations
@@ -185,7 +188,9 @@ def _enumerate_general(normal: Normal, lower, upper, constraints):
             rhs.append(upper[j])
     rows += list(np.asarray(a_extra, dtype=float))
     rows = np.array(rows)
-    rhs = np.concatenate([np.broadcast_to(np.array(rhs, dtype=float), (c, len(rhs))), b_extra], axis=1)
+    rhs = np.concatenate(
+        [np.broadcast_to(np.array(rhs, dtype=float), (c, len(rhs))), b_extra], axis=1
+    )
     best_x = np.zeros((c, k))
     best_rss = np.full(c, np.inf)
     for active in _active_sets(rows.tobytes(), rows.shape):

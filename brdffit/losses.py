@@ -8,14 +8,18 @@ Every loss compares the model ``f`` with the data ``y`` through a transform
 where ``w_m`` are the user's sample weights (scaled to mean 1) and ``norm`` is
 the number of values ``M * C`` (a mean), except for ``chi2``, which is a sum.
 
-| name | transform t(f) | source |
-| --- | --- | --- |
-| ``l2`` | ``f`` | plain least squares |
-| ``cosine`` | ``f cos(theta_i)`` | Löw et al. 2012, "BRDF models for accurate and efficient rendering of glossy surfaces", ACM TOG 31(1), error E1 |
-| ``log`` | ``ln(1 + f cos(theta_i))`` | Löw et al. 2012, error E2 |
-| ``cbrt`` | ``(f cos(theta_i))^(1/3)`` | Forés, Ferwerda and Gu 2012, "Toward a perceptually based metric for BRDF modeling", IS&T CIC 20 (the cube-root metric) |
-| ``relative`` | ``f / max(abs(y), eps)`` | relative error; ``eps`` = 1e-3 of the largest ``abs(y)`` of the channel guards zeros |
-| ``chi2`` | ``f / sigma`` | chi-square with the data's per-sample sigma (needs sigma) |
+- ``l2``: ``t(f) = f``; plain least squares.
+- ``cosine``: ``t(f) = f cos(theta_i)``; Löw, Kronander, Ynnerman and Unger
+  2012, "BRDF models for accurate and efficient rendering of glossy surfaces",
+  ACM TOG 31(1), error E1.
+- ``log``: ``t(f) = ln(1 + f cos(theta_i))``; Löw et al. 2012, error E2.
+- ``cbrt``: ``t(f) = (f cos(theta_i))^(1/3)``; Forés, Ferwerda and Gu 2012,
+  "Toward a perceptually based metric for BRDF modeling", IS&T Color and
+  Imaging Conference 20 (the cube-root metric).
+- ``relative``: ``t(f) = f / max(|y|, eps)``, ``eps`` 1e-3 of the channel's
+  largest ``|y|`` (guards zeros).
+- ``chi2``: ``t(f) = f / sigma`` with the data's per-sample sigma (a sum, not
+  a mean; needs sigma).
 
 The fitting engine solves the linear coefficients by weighted least squares
 in the Gauss-Newton linearisation of ``t`` (exact in one step for the losses

@@ -41,7 +41,9 @@ def test_bright_data_fit_obeys_the_bound_and_pays_for_it():
 def test_energy_rows_match_the_adaptive_quadrature():
     """The fixed rule used inside the fit agrees with properties.albedo for each column."""
     model = get_model("ward_anisotropic")
-    data = data_of(model.name, {"kd": 0.3, "ks": 0.4, "alpha_x": 0.05, "alpha_y": 0.3}, channels=["v"])
+    data = data_of(
+        model.name, {"kd": 0.3, "ks": 0.4, "alpha_x": 0.05, "alpha_y": 0.3}, channels=["v"]
+    )
     problem = Problem(data, model, energy_conserving=True)
     shape = {"alpha_x": 0.05, "alpha_y": 0.3}
     rows, bound = problem.energy.rows(shape)

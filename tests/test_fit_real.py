@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import shared_file
+from scipy_baseline import projected_baseline_fit
 
 import brdffit
 from brdffit.geometry import directions_from_angles
-
-from conftest import shared_file
-from scipy_baseline import projected_baseline_fit
 
 FILES = ["garnet_red.astm", "krylon_blue.astm", "acryl_blue.brdf"]
 MODELS = ["blinn", "ward", "cook_torrance", "ashikhmin_shirley"]
