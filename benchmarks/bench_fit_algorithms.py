@@ -20,8 +20,15 @@ from _suite import cornell_cases, machine, random_cases, recovered, synthetic_ca
 
 import brdffit
 
-CANDIDATES = ["GN_DIRECT_L", "GN_DIRECT_L_RAND", "GN_CRS2_LM", "GN_ISRES", "GN_ESCH",
-              "GN_MLSL_LDS", "none"]
+CANDIDATES = [
+    "GN_DIRECT_L",
+    "GN_DIRECT_L_RAND",
+    "GN_CRS2_LM",
+    "GN_ISRES",
+    "GN_ESCH",
+    "GN_MLSL_LDS",
+    "none",
+]
 
 
 def main():
@@ -35,13 +42,20 @@ def main():
     for alg in algorithms:
         for case in cases:
             t0 = time.perf_counter()
-            r = brdffit.fit(case.data, case.model, global_algorithm=None if alg == "none" else alg,
-                            restarts=0 if alg == "none" else 2, seed=1)
+            r = brdffit.fit(
+                case.data,
+                case.model,
+                global_algorithm=None if alg == "none" else alg,
+                restarts=0 if alg == "none" else 2,
+                seed=1,
+            )
             runs[alg, case.label] = (r, time.perf_counter() - t0)
     best = {c.label: min(runs[a, c.label][0].loss for a in algorithms) for c in cases}
     print(f"machine: {machine()}")
-    print(f"{len(cases)} problems: {sum(c.truth is not None for c in cases)} with known truth, "
-          f"{sum(c.truth is None for c in cases)} real\n")
+    print(
+        f"{len(cases)} problems: {sum(c.truth is not None for c in cases)} with known truth, "
+        f"{sum(c.truth is None for c in cases)} real\n"
+    )
     print("| algorithm | success | failed on | median s | total s | median evals |")
     print("|---|---|---|---|---|---|")
     for alg in algorithms:
@@ -58,8 +72,10 @@ def main():
             if not good:
                 failed.append(c.label.split("/", 1)[1])
         shown = ", ".join(failed[:4]) + (f" (+{len(failed) - 4})" if len(failed) > 4 else "")
-        print(f"| {alg} | {ok}/{len(cases)} ({100 * ok / len(cases):.0f} %) | {shown or '-'} | "
-              f"{np.median(secs):.3f} | {sum(secs):.1f} | {int(np.median(evals))} |")
+        print(
+            f"| {alg} | {ok}/{len(cases)} ({100 * ok / len(cases):.0f} %) | {shown or '-'} | "
+            f"{np.median(secs):.3f} | {sum(secs):.1f} | {int(np.median(evals))} |"
+        )
 
 
 if __name__ == "__main__":

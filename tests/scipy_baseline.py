@@ -75,8 +75,16 @@ def baseline_fit(data, model, starts: int = 4, seed: int = 0, max_nfev: int = 20
             x0 += [min(max(p.default, p.lower), p.upper)] * c
         x0 = np.clip(np.array(x0, dtype=float), lo, hi)
         sol = least_squares(
-            residuals, x0, bounds=(lo, hi), jac_sparsity=sparsity, x_scale="jac",
-            ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=max_nfev, method="trf",
+            residuals,
+            x0,
+            bounds=(lo, hi),
+            jac_sparsity=sparsity,
+            x_scale="jac",
+            ftol=1e-12,
+            xtol=1e-12,
+            gtol=1e-12,
+            max_nfev=max_nfev,
+            method="trf",
         )
         mse = float(np.mean(sol.fun**2))
         if best is None or mse < best[1]:
@@ -108,7 +116,7 @@ def projected_baseline_fit(data, model, starts: int = 6, seed: int = 0):
 
     def params_at(x):
         values = {
-            p.name: float(np.clip(10 ** v if p.log_scale else v, p.lower, p.upper))
+            p.name: float(np.clip(10**v if p.log_scale else v, p.lower, p.upper))
             for p, v in zip(shape, x)
         }
         design = model.design(geometry, values)
