@@ -119,7 +119,7 @@ def run_plain(data, result, seed: int, vectorize: bool, cap: float) -> dict:
     state = start
     while True:
         state = sampler.run_mcmc(state, 100)
-        burn, tau, eff, converged = assess(sampler.get_chain(), 0)
+        _, tau, eff, converged = assess(sampler.get_chain(), 0)
         seconds = time.perf_counter() - t0
         if (converged and eff.min() >= TARGET_ESS) or seconds > cap:
             break
