@@ -467,7 +467,11 @@ def _result(problem: Problem, search: _Search, code, seconds: float, options: di
         "timeout",
         "seed",
         "energy_conserving",
+        "weights",
     )
+    options = {k: options[k] for k in keep}
+    if options["weights"] is not None:
+        options["weights"] = np.array(options["weights"], dtype=float)
     return FitResult(
         model=problem.model.name,
         params=params,
@@ -484,6 +488,6 @@ def _result(problem: Problem, search: _Search, code, seconds: float, options: di
         message=message,
         channels=tuple(data.channels),
         fixed=dict(problem.fixed),
-        options={k: options[k] for k in keep},
+        options=options,
         at_bounds=at_bounds,
     )

@@ -24,9 +24,10 @@ are those the fit solves (``model.coefficients``): for every model but
 ``rd_eff = rd (1 - rs)`` and ``rs``, and the prior is uniform on their box
 ``rd_eff >= 0``, ``0 <= rs <= 1``.
 
-What it does not know. A fit does not record its ``weights`` unless its
-options hold them (``fit_result.options["weights"]``), nor does the
-posterior impose ``energy_conserving``: it samples the plain model.
+The fit's sample weights (``fit_result.options["weights"]``, recorded by
+:func:`brdffit.fit`) weight the likelihood as they weighted the loss, scaled to mean 1 over the
+samples whose weight is not zero (a sample of weight 0 leaves the likelihood). What it
+does not do: impose ``energy_conserving``; it samples the plain model.
 """
 
 from __future__ import annotations
@@ -224,7 +225,10 @@ def _target(data, fit_result, noise):
         fixed=dict(fit_result.fixed),
     )
     if weights is not None:
-        weights = np.asarray(weights, dtype=float) / np.mean(weights)
+        # Mean 1 over the samples that count: a zero weight removes a sample from
+        # the likelihood, it does not lend its information to the others.
+        weights = np.asarray(weights, dtype=float)
+        weights = weights / np.mean(weights[weights > 0])
     x_fit = problem.x_from_params(fit_result.params)
     return problem, Target(problem, noise, x_fit, weights)
 

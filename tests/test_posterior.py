@@ -391,6 +391,28 @@ def test_fit_with_uncertainty_attaches_the_posterior(ward_fit):
     assert result.to_dict()["posterior"]["n_steps"] == 40
 
 
+def test_fit_weights_carry_into_the_likelihood():
+    """A fit weighted 0 on half the samples: its posterior is that of the other half
+    alone (the zero-weight samples leave the likelihood and lend nothing to the
+    rest), and wider than that of all samples, whose information is twice as much."""
+    rng = np.random.default_rng(23)
+    wi, wo = near_specular(160, rng)
+    data = dataset("ward", {"kd": 0.3, "ks": 0.2, "alpha": 0.15}, wi, wo, 0.01, rng)
+    half = np.arange(data.n) < data.n // 2
+    weighted = fit(data, "ward", weights=half.astype(float))
+    assert weighted.options["weights"].tolist() == half.astype(float).tolist()
+    alone = fit(data.subset(np.flatnonzero(half)), "ward")
+    both = fit(data, "ward")
+    sd = {}
+    for key, d, r in (("weighted", data, weighted), ("alone", data.subset(np.flatnonzero(half)), alone),
+                      ("both", data, both)):  # fmt: skip
+        post = sample_posterior(d, r, seed=4, steps=400)
+        sd[key] = np.array([post.summary[n]["std"] for n in ("kd", "ks", "alpha")])
+    # Monte Carlo error of a std from >= 1,000 effective samples is about 2 %.
+    np.testing.assert_allclose(sd["weighted"], sd["alone"], rtol=0.1)
+    assert (sd["weighted"] / sd["both"] > 1.2).all(), sd
+
+
 # ------------------------------------------------- reproducibility, budgets
 def test_seeded_runs_are_reproducible(ward_fit):
     data, result = ward_fit
