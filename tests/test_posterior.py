@@ -403,9 +403,9 @@ def test_fit_weights_carry_into_the_likelihood():
     assert weighted.options["weights"].tolist() == half.astype(float).tolist()
     alone = fit(data.subset(np.flatnonzero(half)), "ward")
     both = fit(data, "ward")
+    first = data.subset(np.flatnonzero(half))
     sd = {}
-    for key, d, r in (("weighted", data, weighted), ("alone", data.subset(np.flatnonzero(half)), alone),
-                      ("both", data, both)):  # fmt: skip
+    for key, d, r in (("weighted", data, weighted), ("alone", first, alone), ("both", data, both)):
         post = sample_posterior(d, r, seed=4, steps=400)
         sd[key] = np.array([post.summary[n]["std"] for n in ("kd", "ks", "alpha")])
     # Monte Carlo error of a std from >= 1,000 effective samples is about 2 %.
