@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
+from job_polling import wait_for
 
 import brdffit
 from brdffit.properties import model_properties
@@ -78,16 +79,6 @@ def assert_error(response, status: int, field: str | None = None, words: str = "
         assert body["field"] == field, body
     assert words.lower() in body["message"].lower(), body
     return body
-
-
-def wait_for(client, job_id: str, statuses=("done", "failed", "interrupted"), seconds=60.0):
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        job = client.get(f"/jobs/{job_id}").json()
-        if job["status"] in statuses:
-            return job
-        time.sleep(0.1)
-    raise AssertionError(f"job {job_id} still {job['status']} after {seconds} s")
 
 
 # ------------------------------------------------------------------- basics

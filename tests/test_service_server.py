@@ -19,6 +19,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+from job_polling import wait_for
 
 import brdffit
 
@@ -102,16 +103,6 @@ def live_members(group: int) -> list[int]:
             if int(fields[2]) == group and fields[0] != "Z":
                 out.append(int(entry.name))
     return out
-
-
-def wait_for(client, job_id, statuses, seconds=60.0) -> dict:
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        job = client.get(f"/jobs/{job_id}").json()
-        if job["status"] in statuses:
-            return job
-        time.sleep(0.1)
-    raise AssertionError(f"job {job_id} is still {job['status']} after {seconds} s")
 
 
 def test_results_survive_a_crash_and_the_cut_job_is_interrupted(tmp_path):
