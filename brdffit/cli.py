@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
-import time
 import warnings
 
 import numpy as np
 
 from . import __version__
+from .cli_text import fit_text, plain, print_json, progress_for, shout, table
 from .errors import BrdfFitError
 from .models.base import HIGHLIGHTS, OPERANDS, ORIGINS, SYMMETRIES
 
@@ -89,149 +88,6 @@ def _read(args):
     return data
 
 
-# ----------------------------------------------------------------- progress
-class _Progress:
-    """A progress line on stderr (a TTY), for FitProgress and PosteriorProgress reports."""
-
-    def __init__(self, label: str, max_seconds: float | None = None):
-        self.label, self.max_seconds = label, max_seconds
-        self.last, self.shown = 0.0, False
-
-    def __call__(self, p) -> None:
-        now = time.monotonic()
-        if now - self.last < 0.1:
-            return
-        self.last = now
-        if hasattr(p, "n_evals"):
-            text = (
-                f"{self.label}: {p.stage:<10} {p.n_evals:>6} evaluations, best loss "
-                f"{p.best_loss:.4g}, {p.seconds:.1f} s"
-            )
-        else:
-            budget = max(p.steps / p.max_steps, p.seconds / (self.max_seconds or math.inf))
-            bar = "#" * round(20 * min(budget, 1.0))
-            text = (
-                f"sampling [{bar:<20}] {p.steps} steps, autocorrelation {p.autocorr_time:.1f}"
-                f", {p.effective_samples} effective samples, {p.seconds:.1f} s"
-            )
-        self.line(text)
-
-    def line(self, text: str) -> None:
-        sys.stderr.write("\r\x1b[2K" + text[:150])
-        sys.stderr.flush()
-        self.shown = True
-
-    def done(self) -> None:
-        if self.shown:
-            sys.stderr.write("\r\x1b[2K")
-            sys.stderr.flush()
-
-
-def _progress(args, label: str, max_seconds=None):
-    if getattr(args, "json", False) or not sys.stderr.isatty():
-        return None
-    return _Progress(label, max_seconds)
-
-
-# ----------------------------------------------------------------- printing
-def _table(header, rows) -> str:
-    widths = [max(len(str(x)) for x in column) for column in zip(header, *rows)]
-    lines = [
-        "  ".join(str(x).ljust(w) for x, w in zip(row, widths)).rstrip()
-        for row in (header, ["-" * w for w in widths], *rows)
-    ]
-    return "\n".join(lines)
-
-
-def _pm(summary) -> str:
-    """``median +up -down`` (84th and 16th percentiles), to two digits of the error."""
-    med, up, down = (
-        summary["median"],
-        summary["p84"] - summary["median"],
-        summary["median"] - summary["p16"],
-    )
-    err = min(e for e in (up, down, math.inf) if e > 0)
-    if not (math.isfinite(err) and math.isfinite(med)):
-        return f"{med:.6g}"
-    scale = math.floor(math.log10(abs(med))) if med else math.floor(math.log10(err))
-    digits = max(scale - math.floor(math.log10(err)) + 2, 2)
-    # "#" keeps trailing zeros: 0.35030 says the fifth digit is known to be 0.
-    return f"{med:#.{digits}g} +{up:.2g} -{down:.2g}"
-
-
-def _value_cells(result, name, channels):
-    """Cells of one parameter: one per channel for per-channel values."""
-    post = result.posterior
-    if post is not None:
-        keys = [name] if name in post.names else [f"{name}[{c}]" for c in channels]
-        if all(k in post.summary for k in keys):
-            return [_pm(post.summary[k]) for k in keys]
-    value = np.atleast_1d(np.asarray(result.params[name], dtype=float))
-    return [f"{v:.6g}" for v in value]
-
-
-def _fit_text(data, result, label: str) -> str:
-    channels = list(result.channels)
-    wide = 1 < len(channels) <= 4
-    rows = []
-    for name in result.params:
-        cells = _value_cells(result, name, channels)
-        note = (
-            "fixed" if name in result.fixed else ("at a bound" if name in result.at_bounds else "")
-        )
-        if wide or len(cells) == 1:
-            rows.append([name, *cells, *[""] * (len(channels) - len(cells)), note])
-        else:
-            rows += [[f"{name}[{c}]", cell, note] for c, cell in zip(channels, cells)]
-    post = result.posterior
-    if post is not None and "noise" in post.summary:
-        rows.append(
-            ["noise", _pm(post.summary["noise"]), *[""] * (len(channels) - 1) * wide, post.noise]
-        )
-    head = ["parameter", *(channels if wide else ["value"]), ""]
-    kind = "median +(84th-50th) -(50th-16th) percentile" if post is not None else "best fit"
-    if post is not None and not post.converged:
-        kind += " of a posterior that DID NOT CONVERGE: not reliable"
-    m = result.metrics
-    lines = [
-        f"{result.model} fitted to {label}: {data.n} samples, "
-        f"channels {', '.join(channels)}, sigma {'given' if data.sigma is not None else 'none'}",
-        "",
-        _table(head, rows),
-        "",
-        f"values: {kind}",
-        f"{result.loss_name} loss {result.loss:.6g}, rmse {m['rmse']:.6g}, BIC {m['bic']:.6g}; "
-        f"{result.n_evals} evaluations in {result.seconds:.2f} s",
-        f"fit: {result.message}",
-    ]
-    if post is not None:
-        lines.append(
-            f"posterior: {post.message} ({post.seconds:.1f} s; noise: {post.noise_meaning})"
-        )
-    return "\n".join(lines)
-
-
-def _shout(*lines: str) -> None:
-    bar = "!" * 78
-    sys.stderr.write("\n".join([bar, *lines, bar]) + "\n")
-
-
-def _plain(value):
-    """JSON-ready: arrays as lists, NaN and infinities as null (JSON has neither)."""
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_plain(v) for v in value]
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    return value.item() if isinstance(value, np.generic) else value
-
-
-def _print_json(obj) -> int:
-    print(json.dumps(_plain(obj), indent=2, allow_nan=False))
-    return 0
-
-
 # ----------------------------------------------------------------- commands
 def cmd_models(args) -> int:
     from .models import list_models
@@ -244,7 +100,7 @@ def cmd_models(args) -> int:
     if args.properties:
         from .properties import model_properties
 
-        progress = _progress(args, "measuring")
+        progress = progress_for(args, "measuring")
         for i, (model, out) in enumerate(zip(models, found)):
             if progress:
                 progress.line(f"measuring {model.name} ({i + 1}/{len(models)})")
@@ -252,7 +108,7 @@ def cmd_models(args) -> int:
         if progress:
             progress.done()
     if args.json:
-        return _print_json(found)
+        return print_json(found)
     header = ["model", *AXES, "wave", "parameters"]
     header += ["max albedo", "albedo <= 1", "reciprocity error"] if args.properties else []
     rows = []
@@ -263,7 +119,7 @@ def cmd_models(args) -> int:
         if p:
             rows[-1] += [f"{np.max(p['max_albedo']):.3g}", "yes" if p["energy_conserving"] else
                          "NO", f"{p['reciprocity_max']:.1e}"]  # fmt: skip
-    print(_table(header, rows) if rows else "no model matches these filters")
+    print(table(header, rows) if rows else "no model matches these filters")
     if args.properties:
         print("\nat each model's default parameters; albedo over theta_i = 0..85 degrees; "
               "reciprocity: largest |f(L,V) - f(V,L)| / max f")  # fmt: skip
@@ -282,8 +138,8 @@ def cmd_fit(args) -> int:
     from .fitting import fit
 
     data = _read(args)
-    fit_progress = _progress(args, f"fitting {args.model}")
-    post_progress = _progress(args, "sampling", args.max_seconds or 60.0)
+    fit_progress = progress_for(args, f"fitting {args.model}")
+    post_progress = progress_for(args, "sampling", args.max_seconds or 60.0)
     options = dict(
         loss=args.loss,
         seed=args.seed,
@@ -300,13 +156,13 @@ def cmd_fit(args) -> int:
         for progress in (fit_progress, post_progress):
             if progress:
                 progress.done()
-    print(json.dumps(_plain(result.to_dict()), indent=2) if args.json else
-          _fit_text(data, result, args.file))  # fmt: skip
+    print(json.dumps(plain(result.to_dict()), indent=2) if args.json else
+          fit_text(data, result, args.file))  # fmt: skip
     if not result.converged:
-        _shout(f"the fit did not converge: {result.message}",
+        shout(f"the fit did not converge: {result.message}",
                "give it more time (--timeout) or check the model and the data")  # fmt: skip
     if result.posterior is not None and not result.posterior.converged:
-        _shout("THE POSTERIOR DID NOT CONVERGE: the uncertainties above are not reliable.",
+        shout("THE POSTERIOR DID NOT CONVERGE: the uncertainties above are not reliable.",
                result.posterior.message, "give it more time with --max-seconds")  # fmt: skip
     if args.plot:
         _plots(args.plot, data, result, args.file)
@@ -339,7 +195,7 @@ def cmd_compare(args) -> int:
         timeout=args.timeout,
     )
     if args.json:
-        return _print_json(comparison.to_dict())
+        return print_json(comparison.to_dict())
     print(comparison)
     print(
         f"best by BIC: {comparison.best_by_bic}; best on the held-out samples: "
@@ -385,7 +241,7 @@ def cmd_evaluate(args) -> int:
     names = ("theta_i", "phi_i", "theta_o", "phi_o")
     if args.json:
         out = {"model": model.name, "params": params, **dict(zip(names, angles))}
-        return _print_json(out | {"values": values, "units": "1/sr"})
+        return print_json(out | {"values": values, "units": "1/sr"})
     columns = values.reshape(len(values), -1)
     width = columns.shape[1]
     channels = {1: ["value"], 3: ["r", "g", "b"]}.get(width, [f"c{i}" for i in range(width)])

@@ -21,7 +21,8 @@ import numpy as np
 import pytest
 
 import brdffit
-from brdffit.cli import _pm, main
+from brdffit.cli import main
+from brdffit.cli_text import _pm
 
 ROOT = Path(__file__).resolve().parents[1]
 WARD = ROOT / "data_synthetic" / "ward.csv"
