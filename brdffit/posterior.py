@@ -26,8 +26,10 @@ are those the fit solves (``model.coefficients``): for every model but
 
 The fit's sample weights (``fit_result.options["weights"]``, recorded by
 :func:`brdffit.fit`) weight the likelihood as they weighted the loss, scaled to mean 1 over the
-samples whose weight is not zero (a sample of weight 0 leaves the likelihood). What it
-does not do: impose ``energy_conserving``; it samples the plain model.
+samples whose weight is not zero (a sample of weight 0 leaves the likelihood).
+The posterior of an ``energy_conserving`` fit is restricted as the fit was, to
+directional albedo <= 1, by dropping the draws that exceed it
+(:mod:`brdffit.posterior_energy`).
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ from .posterior_chain import (
     run_chain,
     start_walkers,
 )
+from .posterior_energy import restrict_to_energy
 from .posterior_result import NOISE_MEANING, Posterior
 from .posterior_target import NOISE_MODELS, Target
 from .problem import Problem
@@ -197,7 +200,12 @@ def sample_posterior(
         chain = info.chain
         kept = chain[info.burn :: _thin(info)] if info.burn < len(chain) else chain[-1:]
         theta = kept.reshape(-1, target.dim)
-    names, samples = _samples(problem, target, theta, rng)
+    coefs = target.draw_coefficients(theta, rng)
+    energy_note, kept_fraction = "", 1.0
+    if fit_result.options.get("energy_conserving"):
+        keep, energy_note = restrict_to_energy(problem, target, theta, coefs, deadline)
+        theta, coefs, kept_fraction = theta[keep], coefs[keep], float(keep.mean())
+    names, samples = _samples(problem, target, theta, coefs)
     common = dict(
         model=problem.model.name,
         loss=problem.loss.name,
@@ -211,7 +219,8 @@ def sample_posterior(
         sampled=tuple(p.name for p in problem.free_shape) + (NOISE_NAME,) * target.estimates_noise,
         sampled_log=tuple(bool(v) for v in target.log_scale) + (True,) * target.estimates_noise,
     )
-    return _posterior(common, info, max_seconds, time.perf_counter() - t0)
+    seconds = time.perf_counter() - t0
+    return _posterior(common, info, max_seconds, seconds, energy_note, kept_fraction)
 
 
 def _target(data, fit_result, noise):
@@ -240,10 +249,9 @@ def _thin(info) -> int:
     return max(1, round(float(tau.max()))) if len(tau) else 1
 
 
-def _samples(problem, target, theta, rng):
+def _samples(problem, target, theta, coefs):
     """Columns: coefficients per channel, free shape parameters, noise."""
     channels = problem.data.channels
-    coefs = target.draw_coefficients(theta, rng)
     names, columns = [], []
     for j, coef in enumerate(problem.free_coefs):
         for c, ch in enumerate(channels):
@@ -259,11 +267,16 @@ def _samples(problem, target, theta, rng):
     return tuple(names), np.column_stack(columns) if columns else np.zeros((len(theta), 0))
 
 
-def _posterior(common: dict, info, max_seconds, seconds: float) -> Posterior:
+def _posterior(
+    common: dict, info, max_seconds, seconds: float, energy_note: str, kept_fraction: float
+) -> Posterior:
+    """The Posterior with its diagnostics; ``kept_fraction`` of the draws survived the
+    energy restriction (``energy_note`` says so), and the effective count with them."""
+    note = f"; {energy_note}" if energy_note else ""
     if info is None:
         message = (
             "converged: nothing to sample by MCMC (no free shape parameter, noise given); "
-            f"{len(common['samples'])} independent draws of the coefficients"
+            f"{len(common['samples'])} independent draws of the coefficients{note}"
         )
         return Posterior(
             **common,
@@ -279,7 +292,7 @@ def _posterior(common: dict, info, max_seconds, seconds: float) -> Posterior:
         )
     n_post = info.steps - info.burn
     tau_max = float(np.nanmax(info.tau)) if np.isfinite(info.tau).any() else float("nan")
-    ess = int(info.effective.min()) if len(info.effective) else 0
+    ess = int(info.effective.min() * kept_fraction) if len(info.effective) else 0
     length = f"{n_post / tau_max:.0f}" if math.isfinite(tau_max) and n_post > 0 else "no"
     facts = (
         f"{info.steps} steps, burn-in {info.burn}, {length} autocorrelation times after "
@@ -294,6 +307,7 @@ def _posterior(common: dict, info, max_seconds, seconds: float) -> Posterior:
             "": "ran the steps asked for",
         }[info.stopped]
         message = f"not converged: {why}; {facts}, {TOL} are needed"
+    message += note
     taus = {name: float(t) for name, t in zip(common["sampled"], info.tau)}
     return Posterior(
         **common,
