@@ -206,6 +206,7 @@ def sample_posterior(
         keep, energy_note = restrict_to_energy(problem, target, theta, coefs, deadline)
         theta, coefs, kept_fraction = theta[keep], coefs[keep], float(keep.mean())
     names, samples = _samples(problem, target, theta, coefs)
+    samples = _canonical_samples(problem, names, samples)
     common = dict(
         model=problem.model.name,
         loss=problem.loss.name,
@@ -265,6 +266,44 @@ def _samples(problem, target, theta, coefs):
         names.append(NOISE_NAME)
         columns.append(10.0 ** theta[:, target.d])
     return tuple(names), np.column_stack(columns) if columns else np.zeros((len(theta), 0))
+
+
+def _canonical_samples(problem, names, samples: np.ndarray) -> np.ndarray:
+    """Each sample with its repeated lobes in the fit's canonical order.
+
+    A sum with two lobes of one model has a posterior symmetric under swapping
+    them (same likelihood, same prior box); walkers that cross over would mix
+    the two labellings into one bimodal cloud. Relabelling every sample as the
+    fit labels its optimum folds the posterior onto the ordered region, where
+    it is the posterior of the labelled parameters.
+    """
+    model = problem.model
+    if model.canonical is None or not len(samples):
+        return samples
+    params = {p.name for p in model.params}
+    if not set(problem.free_coefs) <= params:
+        return samples  # coefficients that are not parameters: left as drawn
+    channels = problem.data.channels
+    column = {name: i for i, name in enumerate(names)}
+
+    def columns_of(name):
+        if name in column:
+            return [column[name]]
+        return [column[f"{name}[{c}]"] for c in channels if f"{name}[{c}]" in column]
+
+    free = {name: columns_of(name) for name in (*problem.free_coefs, *column) if name in params}
+    free = {name: cols for name, cols in free.items() if cols}
+    base = {p.name: p.default for p in model.params}
+    base.update(problem.fixed)
+    out = samples.copy()
+    for s, row in enumerate(samples):
+        values = dict(base)
+        values.update({name: row[cols] if len(cols) > 1 else row[cols[0]]
+                       for name, cols in free.items()})  # fmt: skip
+        ordered = model.canonical(values)
+        for name, cols in free.items():
+            out[s, cols] = ordered[name]
+    return out
 
 
 def _posterior(

@@ -24,7 +24,7 @@ from brdffit import FitError, Measurements, fit
 from brdffit.geometry import directions_from_angles
 from brdffit.models import REGISTRY, get_model
 from brdffit.plots import corner_plot, trace_plot
-from brdffit.posterior import Posterior, sample_posterior
+from brdffit.posterior import Posterior, _canonical_samples, sample_posterior
 from brdffit.posterior_chain import integrated_time
 from brdffit.posterior_target import Target
 from brdffit.problem import Problem
@@ -439,6 +439,22 @@ def test_energy_conserving_fit_gives_a_posterior_within_the_bound():
     assert "energy_conserving: kept" in bound.message
     assert len(bound.samples) < len(plain.samples)
     assert bound.effective_samples < plain.effective_samples
+
+
+def test_repeated_lobes_are_relabelled_in_every_sample():
+    """Two blinn lobes: samples drawn with the lobes swapped (as walkers that cross
+    over would give) come back in the fit's order, smaller n first, each lobe's
+    ks moving with its n and the shared diffuse term staying put."""
+    rng = np.random.default_rng(8)
+    wi, wo = near_specular(60, rng)
+    data = Measurements(wi, wo, np.ones((60, 2)), channels=["r", "g"])
+    problem = Problem(data, "lambert+blinn+blinn")
+    names = ("lambert.kd[r]", "lambert.kd[g]", "blinn_1.ks[r]", "blinn_1.ks[g]",
+             "blinn_2.ks[r]", "blinn_2.ks[g]", "blinn_1.n", "blinn_2.n")  # fmt: skip
+    ordered = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 10.0, 200.0])
+    swapped = np.array([0.1, 0.2, 0.5, 0.6, 0.3, 0.4, 200.0, 10.0])
+    out = _canonical_samples(problem, names, np.vstack([ordered, swapped]))
+    np.testing.assert_array_equal(out, np.vstack([ordered, ordered]))
 
 
 # ------------------------------------------------- reproducibility, budgets
