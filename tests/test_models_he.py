@@ -381,10 +381,11 @@ def total_albedo(shape, thetas):
     return spike + dd.value, dd.error
 
 
-@pytest.mark.parametrize("eta, k", [(1.5, 0.0), (10.0, 0.0), (10.0, 20.0)])
+@pytest.mark.parametrize("eta, k", [(1.5, 0.0), (10.0, 0.0), (10.0, 20.0), (0.4, 2.4), (1.0, 6.7)])
 def test_directional_albedo_at_most_one_unless_the_conductor_is_nearly_perfect(eta, k):
-    """Dielectrics (up to eta = 10) and conductors with F(0) up to 0.92 (eta = 10, k = 20),
-    0 to 89 degrees of incidence, smooth to rough surfaces."""
+    """Dielectrics (up to eta = 10) and conductors with F(0) up to 0.92 (eta = 10, k = 20;
+    gold's visible index 0.4 + 2.4i; aluminium's 1.0 + 6.7i), 0 to 89 degrees of incidence,
+    smooth to rough surfaces."""
     thetas = [0.0, 60.0, 85.0, 89.0]
     for s_l, t_l in ALBEDO_GRID:
         shape = albedo_shape(s_l, t_l, eta, k)
