@@ -21,16 +21,18 @@ from scipy.sparse import lil_matrix
 from brdffit import get_model
 
 
-def baseline_fit(data, model, starts: int = 4, seed: int = 0, max_nfev: int = 200):
+def baseline_fit(data, model, starts: int = 4, seed: int = 0, max_nfev: int = 200, fixed=None):
     """Best of ``starts`` least_squares runs; returns (params, mean squared error,
-    evaluations, seconds)."""
+    evaluations, seconds). ``fixed``: parameters held at given values, as brdffit
+    holds them (``FitResult.fixed``: he's material constants and wavelengths)."""
     t0 = time.perf_counter()
     model = get_model(model)
     geometry = data.geometry()
     y = np.asarray(data.values, dtype=float)
     n, c = y.shape
-    shape = [p for p in model.shape_params if not p.per_channel]
-    linear = list(model.linear_params)
+    fixed = dict(fixed or {})
+    shape = [p for p in model.shape_params if not p.per_channel and p.name not in fixed]
+    linear = [p for p in model.linear_params if p.name not in fixed]
     lo = [np.log10(p.lower) if p.log_scale else p.lower for p in shape]
     hi = [np.log10(p.upper) if p.log_scale else p.upper for p in shape]
     for p in linear:
@@ -39,7 +41,7 @@ def baseline_fit(data, model, starts: int = 4, seed: int = 0, max_nfev: int = 20
     lo, hi = np.array(lo), np.array(hi)
 
     def unpack(x):
-        params = {}
+        params = dict(fixed)
         for i, p in enumerate(shape):
             params[p.name] = float(np.clip(10 ** x[i] if p.log_scale else x[i], p.lower, p.upper))
         for j, p in enumerate(linear):
