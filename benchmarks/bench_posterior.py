@@ -19,7 +19,7 @@ integrated autocorrelation times of sampling after burn-in) with at least
 * plain emcee, vectorised (``vectorize=True``, one call per step), for context.
 
 Run: ``python benchmarks/bench_posterior.py [--runs 3] [--cap 600]``. It prints
-a Markdown table with the medians; benchmarks/POSTERIOR.md records one run.
+a Markdown table with the medians; benchmarks/README.md records one run.
 """
 
 from __future__ import annotations

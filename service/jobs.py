@@ -209,7 +209,7 @@ class FitPool:
     """Synchronous fits in worker processes, or with no workers on the calling thread.
 
     Threads use both cores of the benchmark machine as well as processes do (the
-    numpy work of a fit releases the GIL; ``benchmarks/SERVICE.md``), so the
+    numpy work of a fit releases the GIL; ``benchmarks/README.md``), so the
     default is none; processes keep a fit's memory and any crash out of the web
     process. Library errors raised in a worker reach the caller unchanged."""
 

@@ -40,7 +40,7 @@ class Settings(BaseModel):
         le=256,
         description="Worker processes running synchronous fits; 0 runs them on the web "
         "process's threads, which use every core as well, the numpy work releasing the GIL "
-        "(benchmarks/SERVICE.md).",
+        "(benchmarks/README.md).",
     )
     max_body_bytes: int = Field(
         64 * 2**20, ge=1024, description="Largest request body accepted; larger ones get 413."
