@@ -42,9 +42,9 @@ def get_model(name) -> Model:
         return REGISTRY[name]
     except KeyError:
         close = difflib.get_close_matches(name, REGISTRY, n=3, cutoff=0.5)
-        hint = f"; did you mean {', '.join(close)}?" if close else ""
+        hint = f" (did you mean {', '.join(close)}?)" if close else ""
         raise ModelError(
-            f"unknown model {name!r}{hint} Known models: {', '.join(sorted(REGISTRY))}",
+            f"unknown model {name!r}{hint}; known models: {', '.join(sorted(REGISTRY))}",
             "model",
         ) from None
 
