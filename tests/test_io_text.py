@@ -268,7 +268,7 @@ def test_unknown_formats_options_and_read_only_formats_are_errors(tmp_path):
         write(tmp_path / "a.csv", data, format="xls")
     with pytest.raises(FormatError, match=r"cannot tell which format to write .*a\.xyz"):
         write(tmp_path / "a.xyz", data)
-    for name in ("pbrt", "mbsdf"):
+    for name in ("pbrt", "mbsdf", "rgl"):
         with pytest.raises(FormatError, match=rf"{name} format can be read but not written"):
             write(tmp_path / "a.out", data, format=name)
     write(tmp_path / "a.csv", data)
@@ -276,7 +276,7 @@ def test_unknown_formats_options_and_read_only_formats_are_errors(tmp_path):
         read(tmp_path / "a.csv", subsample=2)
     with pytest.raises(DataError, match="data must be Measurements"):
         write(tmp_path / "b.csv", np.zeros(3))
-    assert set(FORMATS) == {"csv", "astm", "pbrt", "merl", "mbsdf", "npz"}
+    assert set(FORMATS) == {"csv", "astm", "pbrt", "merl", "mbsdf", "npz", "rgl"}
 
 
 def test_npz_that_is_not_brdffit_is_a_format_error(tmp_path):

@@ -3,13 +3,14 @@
 The format is named by ``format=``, or inferred from the file's extension, or,
 when the extension says nothing, from its first bytes: an MBSDF file starts
 with ``NVIDIA ARC MBSDF``, a MERL ``.binary`` file with the little-endian int32
-90, 90, 180, an NPZ archive is a zip (``PK``); text is recognised by its first
+90, 90, 180, an NPZ archive is a zip (``PK``), an RGL ``.bsdf`` file (Mitsuba
+``tensor_file``) with ``tensor_file\\0``; text is recognised by its first
 line (a CSV header naming ``theta_i``, an ASTM ``KEY value`` line, or the
 wavelength count that starts a pbrt file).
 
 :data:`FORMATS` maps each name to its reader, writer (None when the format is
-read only) and extensions. The MERL and MBSDF functions are imported when
-first used.
+read only) and extensions. The MERL, MBSDF and RGL functions are imported
+when first used.
 """
 
 from __future__ import annotations
@@ -57,6 +58,12 @@ def _read_mbsdf(path) -> Measurements:
     return read_mbsdf(path)
 
 
+def _read_rgl(path) -> Measurements:
+    from .rgl import read_rgl
+
+    return read_rgl(path)
+
+
 FORMATS: dict[str, Format] = {
     "csv": Format(read_csv, write_csv, (".csv",), "brdffit CSV, angles in degrees"),
     "astm": Format(read_astm, write_astm, (".astm",), "ASTM E1392 text, angles in radians"),
@@ -64,6 +71,7 @@ FORMATS: dict[str, Format] = {
     "merl": Format(_read_merl, _write_merl, (".binary",), "MERL BRDF database binary"),
     "mbsdf": Format(_read_mbsdf, None, (".mbsdf",), "NVIDIA MDL measured BSDF (read only)"),
     "npz": Format(read_npz, write_npz, (".npz",), "NumPy archive, lossless"),
+    "rgl": Format(_read_rgl, None, (".bsdf",), "RGL-EPFL material (read only)"),
 }
 
 _MERL_MAGIC = struct.pack("<3i", 90, 90, 180)
@@ -118,6 +126,8 @@ def detect_format(path) -> str:
         return "merl"
     if head.startswith((b"PK\x03\x04", b"PK\x05\x06")):
         return "npz"
+    if head.startswith(b"tensor_file\x00"):
+        return "rgl"
     name = _sniff_text(head)
     if name is None:
         raise FormatError(
