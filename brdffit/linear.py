@@ -77,7 +77,7 @@ def normal_equations(
         wa = columns if w is None else columns * w[:, None]
         gram = np.broadcast_to(wa.T @ columns, (c, k, k))
     else:
-        iu = np.triu_indices(k)
+        iu = _upper_triangle(k)
         gram_flat = w.T @ (columns[:, iu[0]] * columns[:, iu[1]])  # (C, P)
         gram = np.empty((c, k, k))
         gram[:, iu[0], iu[1]] = gram_flat
@@ -85,6 +85,12 @@ def normal_equations(
     wy, yy = weighted if weighted is not None else weighted_target(y, w)
     rhs = (columns.T @ wy).T  # (C, K)
     return Normal(gram, rhs, yy)
+
+
+@cache
+def _upper_triangle(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.triu_indices(k)``, made once per K (a fit asks for it at every step)."""
+    return np.triu_indices(k)
 
 
 @cache
