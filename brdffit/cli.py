@@ -82,7 +82,8 @@ def _angles(items) -> tuple:
 def _read(args):
     from .io import read
 
-    data = read(args.file)
+    options = {"subsample": args.subsample} if getattr(args, "subsample", None) else {}
+    data = read(args.file, format=getattr(args, "format", None), **options)
     if getattr(args, "channels", None):
         data = data.select_channels([c.strip() for c in args.channels.split(",") if c.strip()])
     return data
@@ -146,6 +147,7 @@ def cmd_fit(args) -> int:
         timeout=args.timeout,
         fixed=_assignments(args.fixed, "--fixed") or None,
         free=tuple(args.free or ()),
+        energy_conserving=args.energy_conserving,
         progress=fit_progress,
     )
     if args.uncertainty:
@@ -302,7 +304,11 @@ _count = _number(int, 1, 10**9, "a whole number >= 1")
 def _add_fit_options(p) -> None:
     from .losses import LOSSES
 
-    p.add_argument("file", help="a data file: CSV, ASTM, pbrt .brdf, MERL .binary, MBSDF, NPZ")
+    p.add_argument(
+        "file", help="a data file: CSV, ASTM, pbrt .brdf, MERL .binary, MBSDF, NPZ, RGL .bsdf"
+    )
+    p.add_argument("--format", help="the file's format when its name does not tell it")
+    p.add_argument("--subsample", type=_count, help="MERL: keep every k-th cell per axis")
     p.add_argument(
         "--loss",
         choices=list(LOSSES),
@@ -341,6 +347,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", required=True, help='a model name, or a sum "lambert+blinn"')
     p.add_argument("--fixed", nargs="+", metavar="NAME=VALUE", help="hold parameters fixed")
     p.add_argument("--free", nargs="+", metavar="NAME", help="search parameters held by default")
+    p.add_argument(
+        "--energy-conserving",
+        action="store_true",
+        help="keep the directional albedo <= 1 at every incidence",
+    )
     p.add_argument("--uncertainty", action="store_true", help="also sample the posterior")
     p.add_argument("--max-seconds", type=_seconds, help="time budget of the sampling (default 60)")
     p.add_argument("--walkers", type=_count, help="emcee walkers (default 32)")

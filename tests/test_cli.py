@@ -157,6 +157,25 @@ def test_plot_writes_pngs_matplotlib_reads_back(capsys, tmp_path):
     assert "fit_corner.png" in err
 
 
+def test_fit_energy_conserving_matches_the_library(capsys, tmp_path):
+    """Bright phong data (albedo up to 3.5) fitted with --energy-conserving: the JSON is
+    the library's energy-conserving fit, whose albedo stays at most 1."""
+    rng = np.random.default_rng(2)
+    n = 300
+    wi = np.array([direction(t, 0.0) for t in rng.uniform(0, 80, n)])
+    wo = np.array([direction(t, p) for t, p in zip(rng.uniform(0, 85, n), rng.uniform(0, 360, n))])
+    values = brdffit.get_model("phong").evaluate(wi, wo, {"kd": 0.8, "ks": 3.0, "n": 5.0})
+    path = tmp_path / "bright.npz"
+    brdffit.write(path, brdffit.Measurements(wi, wo, values[:, None], channels=["v"]))
+    code, out, err = run(capsys, "fit", path, "--model", "phong", "--energy-conserving", "--json")
+    assert code == 0, err
+    got = json.loads(out)
+    expected = brdffit.fit(brdffit.read(path), "phong", energy_conserving=True).to_dict()
+    assert without_seconds(got) == without_seconds(plain_json(expected))
+    assert got["options"]["energy_conserving"] is True
+    assert got["metrics"]["max_albedo"] <= 1 + 1e-4
+
+
 # ------------------------------------------------------------------ errors
 @pytest.mark.parametrize(
     ("argv", "words"),
@@ -171,6 +190,9 @@ def test_plot_writes_pngs_matplotlib_reads_back(capsys, tmp_path):
         (["fit", str(WARD), "--model", "ward", "--seed", "-3"], "--seed"),
         (["fit", str(WARD), "--model", "ward", "--timeout", "0"], "positive"),
         (["fit", str(ROOT / "pyproject.toml"), "--model", "ward"], "format"),
+        (["fit", str(WARD), "--model", "ward", "--subsample", "2"], "does not take"),
+        (["fit", str(WARD), "--model", "ward", "--format", "merl"], "90 x 90 x 180"),
+        (["fit", str(WARD), "--model", "ward", "--format", "xyz"], "format"),
         (["evaluate", "--model", "ward", "--angles", "1,2,3"], "four numbers"),
         (["evaluate", "--model", "ward"], "--angles or with --file"),
         (["evaluate", "--model", "ward", "--angles", "200,0,0,0"], "outside [0, 180]"),
