@@ -116,7 +116,8 @@ def read_upload(content: bytes, filename: str | None, format: str | None, subsam
         except BrdfFitError as exc:
             # Name the uploaded file, not the temporary one, in the message.
             shown = filename or "the uploaded file"
-            raise type(exc)(str(exc).replace(path, shown), exc.field) from None
+            # A fault in the file's content is the field "file"'s.
+            raise type(exc)(str(exc).replace(path, shown), exc.field or "file") from None
     finally:
         os.unlink(path)
     if channels:

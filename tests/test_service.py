@@ -331,8 +331,14 @@ def test_fit_file_errors_name_the_uploaded_file(client):
     answer = client.post(
         "/fit/file", files={"file": ("mine.csv", b"a,b\n1,2\n")}, data={"model": "ward"}
     )
-    body = assert_error(answer, 422, None, "mine.csv")
+    body = assert_error(answer, 422, "header", "mine.csv")
     assert "/tmp" not in body["message"]
+    answer = client.post(
+        "/fit/file",
+        files={"file": ("cut.bsdf", b"tensor_file\x00\x01\x00")},
+        data={"model": "ward"},
+    )
+    body = assert_error(answer, 422, "file", "cut.bsdf is truncated")
     answer = client.post(
         "/fit/file", files={"file": ("blob", bytes(range(256)) * 4)}, data={"model": "ward"}
     )
