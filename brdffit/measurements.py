@@ -16,12 +16,12 @@ file is never silently shortened. Azimuths may be any finite number.
 from __future__ import annotations
 
 import re
-import warnings
 
 import numpy as np
 
 from .errors import DataError
 from .geometry import Geometry, angles_from_directions, check_directions, directions_from_angles
+from .notes import note
 
 __all__ = ["Measurements"]
 
@@ -188,10 +188,10 @@ class Measurements:
 
     def _warn_negative(self, stacklevel: int):
         if self.negative_count:
-            warnings.warn(
-                f"{self.negative_count} of {self._values.size} values are negative "
+            where = f"{self._source}: " if self._source else ""
+            note(
+                f"{where}{self.negative_count} of {self._values.size} values are negative "
                 "(measurement noise); they are kept and counted, and no model can reach them",
-                UserWarning,
                 stacklevel=stacklevel,
             )
 

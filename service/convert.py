@@ -17,6 +17,7 @@ import numpy as np
 
 import brdffit
 from brdffit.errors import BrdfFitError, DataError
+from brdffit.notes import collecting
 
 from .schemas import DataIn, FitOptions, PosteriorOptions
 
@@ -70,11 +71,12 @@ def sample_limit(n: int, limit: int, where: str, hint: str = "") -> None:
         )
 
 
-def measurements(data: DataIn, limit: int, prefix: str = "data") -> brdffit.Measurements:
-    """``Measurements.from_angles`` of a body, within a sample limit."""
+def measurements(data: DataIn, limit: int, prefix: str = "data") -> tuple:
+    """``Measurements.from_angles`` of a body, within a sample limit, and the notes
+    made on the way (values below zero...: :mod:`brdffit.notes`)."""
     sample_limit(len(data.theta_i), limit, f"{prefix}.theta_i")
-    with located(prefix):
-        return brdffit.Measurements.from_angles(
+    with located(prefix), collecting() as notes:
+        out = brdffit.Measurements.from_angles(
             data.theta_i,
             data.phi_i,
             data.theta_o,
@@ -85,6 +87,7 @@ def measurements(data: DataIn, limit: int, prefix: str = "data") -> brdffit.Meas
             source=data.source,
             units=data.units,
         )
+    return out, notes
 
 
 def fit_kwargs(options: FitOptions, seconds: float) -> dict:
@@ -103,7 +106,8 @@ def fit_kwargs(options: FitOptions, seconds: float) -> dict:
 def read_upload(content: bytes, filename: str | None, format: str | None, subsample=None,
                 channels: str | None = None, limit: int | None = None):  # fmt: skip
     """``brdffit.read`` of an uploaded file, through a temporary file that keeps its
-    extension (the library infers the format from it, or from the first bytes)."""
+    extension (the library infers the format from it, or from the first bytes), and
+    the notes the reading made, naming the uploaded file."""
     suffix = os.path.splitext(filename or "")[1]
     suffix = suffix if _SAFE_SUFFIX.match(suffix) else ""
     fd, path = tempfile.mkstemp(suffix=suffix)
@@ -112,16 +116,23 @@ def read_upload(content: bytes, filename: str | None, format: str | None, subsam
             f.write(content)
         options = {} if subsample is None else {"subsample": subsample}
         try:
-            data = brdffit.read(path, format=format, **options)
+            with collecting() as notes:
+                data = brdffit.read(path, format=format, **options)
         except BrdfFitError as exc:
-            # Name the uploaded file, not the temporary one, in the message.
-            shown = filename or "the uploaded file"
-            # A fault in the file's content is the field "file"'s.
-            raise type(exc)(str(exc).replace(path, shown), exc.field or "file") from None
+            # Name the uploaded file, not the temporary one, in the message; a fault
+            # in the file's content is the field "file"'s.
+            raise type(exc)(_named(str(exc), path, filename), exc.field or "file") from None
     finally:
         os.unlink(path)
     if channels:
         data = data.select_channels([c.strip() for c in channels.split(",") if c.strip()])
     if limit is not None:
         sample_limit(data.n, limit, "file")
-    return data
+    return data, [_named(text, path, filename) for text in notes]
+
+
+def _named(text: str, path: str, filename: str | None) -> str:
+    """``text`` naming the uploaded file where it names the temporary one (by its path
+    or by its base name, as readers do)."""
+    shown = filename or "the uploaded file"
+    return text.replace(path, shown).replace(os.path.basename(path), shown)

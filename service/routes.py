@@ -133,8 +133,9 @@ def fit(body: FitIn, request: Request):
     (``fit_max_samples``) and seconds (``fit_timeout``, for the fit and for the
     posterior); longer work belongs to ``POST /jobs``."""
     settings = request.app.state.settings
-    data = measurements(body.data, settings.fit_max_samples)
-    return request.app.state.fits.run(data, body.model, fit_kwargs(body, settings.fit_timeout))
+    data, notes = measurements(body.data, settings.fit_max_samples)
+    result = request.app.state.fits.run(data, body.model, fit_kwargs(body, settings.fit_timeout))
+    return {**result, "data_notes": notes}
 
 
 def _options(options: str) -> FitOptions:
@@ -170,14 +171,15 @@ def fit_file(
     """``brdffit.fit(brdffit.read(file), model, **options)``, as ``POST /fit``."""
     settings = request.app.state.settings
     fit_options = _options(options)
-    data = read_upload(file.file.read(), file.filename, format, subsample, channels,
-                       settings.fit_max_samples)  # fmt: skip
+    data, notes = read_upload(file.file.read(), file.filename, format, subsample, channels,
+                              settings.fit_max_samples)  # fmt: skip
     kwargs = fit_kwargs(fit_options, settings.fit_timeout)
-    return request.app.state.fits.run(data, model, kwargs)
+    return {**request.app.state.fits.run(data, model, kwargs), "data_notes": notes}
 
 
 # ------------------------------------------------------------------- jobs
-def _submit(request: Request, response: Response, model_name: str, options: FitOptions, data):
+def _submit(request: Request, response: Response, model_name: str, options: FitOptions, data,
+            notes: list):  # fmt: skip
     state = request.app.state
     kwargs = fit_kwargs(options, state.settings.job_timeout)
     # One evaluation checks the model, the options and the data now, so that bad input
@@ -187,7 +189,7 @@ def _submit(request: Request, response: Response, model_name: str, options: FitO
     job = state.store.create(model_name, kwargs, data_to_bytes(data))
     state.runner.submit(job["id"], job["attempt"])
     response.headers["Location"] = f"/jobs/{job['id']}"
-    return job
+    return {**job, "data_notes": notes}
 
 
 JOB_RESPONSES = {**ERRORS, 202: {"description": "Accepted; stored before this answer."}}
@@ -198,8 +200,8 @@ JOB_RESPONSES = {**ERRORS, 202: {"description": "Accepted; stored before this an
 def create_job(body: FitIn, request: Request, response: Response):
     """Queue ``brdffit.fit(data, model, **options)`` (with the posterior when
     ``uncertainty`` is true); answers 202 once the job is stored."""
-    data = measurements(body.data, request.app.state.settings.max_samples)
-    return _submit(request, response, body.model, body, data)
+    data, notes = measurements(body.data, request.app.state.settings.max_samples)
+    return _submit(request, response, body.model, body, data, notes)
 
 
 @router.post("/jobs/file", status_code=202, response_model=JobOut, responses=JOB_RESPONSES,
@@ -216,9 +218,9 @@ def create_job_file(
 ):
     """``POST /jobs`` with an uploaded file."""
     fit_options = _options(options)
-    data = read_upload(file.file.read(), file.filename, format, subsample, channels,
-                       request.app.state.settings.max_samples)  # fmt: skip
-    return _submit(request, response, model, fit_options, data)
+    data, notes = read_upload(file.file.read(), file.filename, format, subsample, channels,
+                              request.app.state.settings.max_samples)  # fmt: skip
+    return _submit(request, response, model, fit_options, data, notes)
 
 
 @router.get("/jobs", response_model=list[JobOut], responses=ERRORS, tags=["jobs"])

@@ -296,6 +296,12 @@ class FitResultOut(BaseModel):
     options: dict[str, Any]
     at_bounds: list[str]
     posterior: PosteriorOut | None = None
+    data_notes: list[str] | None = Field(
+        None,
+        description="In the answer to POST /fit and /fit/file: what reading the data "
+        "noticed and kept or dropped (values below zero, pairs a reader dropped), "
+        "as the library's warnings say it.",
+    )
 
 
 class ErrorItem(BaseModel):
@@ -343,6 +349,11 @@ class JobOut(BaseModel):
     progress: JobProgress | None = None
     result: FitResultOut | None = None
     error: ErrorOut | None = None
+    data_notes: list[str] | None = Field(
+        None,
+        description="In the answer to POST /jobs and /jobs/file: what reading the data "
+        "noticed (values below zero, pairs a reader dropped).",
+    )
 
 
 class HealthOut(BaseModel):

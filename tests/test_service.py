@@ -327,6 +327,33 @@ def test_fit_file_sniffs_a_csv_without_extension(client):
     assert answer.json()["n_samples"] == brdffit.read(WARD_CSV).n
 
 
+def test_data_notes_reach_the_client(client):
+    """What reading the data noticed (here: values below zero, kept) is in the answer of
+    POST /fit, /fit/file (naming the uploaded file, not the server's temporary one) and
+    /jobs, not only in the server's log; clean data give no notes."""
+    values = [list(v) for v in EXAMPLE_DATA["values"]]
+    values[0] = [-abs(x) - 0.001 for x in values[0]]
+    noisy = EXAMPLE_DATA | {"values": values}
+    answer = client.post("/fit", json={"model": "blinn", "data": noisy})
+    assert answer.status_code == 200, answer.text
+    notes = answer.json()["data_notes"]
+    assert len(notes) == 1 and f"{len(values[0])} of " in notes[0] and "negative" in notes[0]
+    clean = client.post("/fit", json={"model": "blinn", "data": EXAMPLE_DATA}).json()
+    assert clean["data_notes"] == []
+    data = example_measurements()
+    rows = ["theta_i,phi_i,theta_o,phi_o,v"] + [
+        f"{a},{b},{c},{d},{-0.5 if k == 0 else v}"
+        for k, (a, b, c, d, v) in enumerate(zip(*data.angles(), data.values[:, 0]))
+    ]
+    upload = ("mine.csv", ("\n".join(rows) + "\n").encode())
+    answer = client.post("/fit/file", files={"file": upload}, data={"model": "blinn"})
+    assert answer.status_code == 200, answer.text
+    (text,) = answer.json()["data_notes"]
+    assert text.startswith("mine.csv: 1 of ") and "/tmp" not in text
+    job = client.post("/jobs", json={"model": "blinn", "data": noisy})
+    assert job.status_code == 202 and job.json()["data_notes"] == notes
+
+
 def test_fit_file_errors_name_the_uploaded_file(client):
     answer = client.post(
         "/fit/file", files={"file": ("mine.csv", b"a,b\n1,2\n")}, data={"model": "ward"}

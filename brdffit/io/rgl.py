@@ -65,13 +65,13 @@ from __future__ import annotations
 
 import math
 import struct
-import warnings
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import FormatError
+from ..notes import note
 
 __all__ = [
     "DTYPES",
@@ -439,14 +439,13 @@ def read_rgl(path):
     s = read_rgl_arrays(path)
     dropped = s.n_incident_below_horizon + s.n_below_horizon + s.n_merged
     if dropped:
-        warnings.warn(
+        note(
             f"{path}: {dropped} of {s.n_stored} stored direction pairs dropped: "
             f"{s.n_below_horizon} with wo at or below the horizon, "
             f"{s.n_incident_below_horizon} at an incident angle at the horizon "
             "(Mitsuba's measured BSDF is zero there), and "
             f"{s.n_merged} duplicates (grid nodes warped to the same direction); "
             f"{len(s.wi)} pairs kept",
-            UserWarning,
             stacklevel=2,
         )
     return Measurements(s.wi, s.wo, s.values, channels=CHANNELS, source=str(path), units="1/sr")
