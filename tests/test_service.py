@@ -327,6 +327,7 @@ def test_fit_file_sniffs_a_csv_without_extension(client):
     assert answer.json()["n_samples"] == brdffit.read(WARD_CSV).n
 
 
+@pytest.mark.filterwarnings("ignore:.*values are negative:UserWarning")
 def test_data_notes_reach_the_client(client):
     """What reading the data noticed (here: values below zero, kept) is in the answer of
     POST /fit, /fit/file (naming the uploaded file, not the server's temporary one) and
