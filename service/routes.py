@@ -186,10 +186,10 @@ def _submit(request: Request, response: Response, model_name: str, options: FitO
     # is a 422 here rather than a failed job later.
     check = {"max_evals": 1, "restarts": 0, "uncertainty": False, "energy_conserving": False}
     brdffit.fit(data, model_name, **(kwargs | check))
-    job = state.store.create(model_name, kwargs, data_to_bytes(data))
+    job = state.store.create(model_name, kwargs, data_to_bytes(data), notes)
     state.runner.submit(job["id"], job["attempt"])
     response.headers["Location"] = f"/jobs/{job['id']}"
-    return {**job, "data_notes": notes}
+    return job
 
 
 JOB_RESPONSES = {**ERRORS, 202: {"description": "Accepted; stored before this answer."}}

@@ -351,8 +351,8 @@ class JobOut(BaseModel):
     error: ErrorOut | None = None
     data_notes: list[str] | None = Field(
         None,
-        description="In the answer to POST /jobs and /jobs/file: what reading the data "
-        "noticed (values below zero, pairs a reader dropped).",
+        description="What reading the job's data noticed (values below zero, pairs a "
+        "reader dropped); kept with the job.",
     )
 
 

@@ -40,7 +40,8 @@ CREATE TABLE IF NOT EXISTS jobs (
     attempt INTEGER NOT NULL,
     progress TEXT,
     result TEXT,
-    error TEXT
+    error TEXT,
+    notes TEXT
 );
 CREATE INDEX IF NOT EXISTS jobs_status ON jobs (status);
 """
@@ -88,6 +89,10 @@ class JobStore:
         with self._connect() as db:
             db.execute("PRAGMA journal_mode=WAL")
             db.executescript(SCHEMA)
+            # A store written before jobs kept their data notes gains the column.
+            columns = {row["name"] for row in db.execute("PRAGMA table_info(jobs)")}
+            if "notes" not in columns:
+                db.execute("ALTER TABLE jobs ADD COLUMN notes TEXT")
 
     @contextmanager
     def _connect(self):
@@ -100,14 +105,16 @@ class JobStore:
             yield db
 
     # ------------------------------------------------------------ web process
-    def create(self, model: str, options: dict, data: bytes) -> dict:
+    def create(self, model: str, options: dict, data: bytes, notes=()) -> dict:
+        """Store a queued job; ``notes``: what reading its data noticed."""
         job_id = uuid.uuid4().hex
         with self._connect() as db:
             db.execute(
-                "INSERT INTO jobs (id, status, model, options, data, created, attempt) "
-                "VALUES (?, 'queued', ?, ?, ?, ?, 1)",
-                (job_id, model, json.dumps(options), sqlite3.Binary(data), time.time()),
-            )
+                "INSERT INTO jobs (id, status, model, options, data, created, attempt, notes) "
+                "VALUES (?, 'queued', ?, ?, ?, ?, 1, ?)",
+                (job_id, model, json.dumps(options), sqlite3.Binary(data), time.time(),
+                 json.dumps(list(notes))),
+            )  # fmt: skip
         return self.get(job_id)
 
     def get(self, job_id: str) -> dict | None:
@@ -115,7 +122,7 @@ class JobStore:
         with self._connect() as db:
             row = db.execute(
                 "SELECT id, status, model, created, started, finished, attempt, progress, "
-                "result, error FROM jobs WHERE id = ?",
+                "result, error, notes FROM jobs WHERE id = ?",
                 (job_id,),
             ).fetchone()
         return None if row is None else _public(row)
@@ -233,4 +240,7 @@ def _public(row: sqlite3.Row) -> dict:
     for key in ("progress", "result", "error"):
         if key in out:
             out[key] = None if out[key] is None else json.loads(out[key])
+    if "notes" in out:
+        notes = out.pop("notes")
+        out["data_notes"] = [] if notes is None else json.loads(notes)
     return out

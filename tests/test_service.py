@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import sqlite3
 import time
 from pathlib import Path
 
@@ -23,7 +24,7 @@ from service import Settings, create_app
 from service.convert import finite
 from service.jobs import FitPool
 from service.schemas import EXAMPLE_DATA
-from service.store import JobStore, data_to_bytes
+from service.store import SCHEMA, JobStore, data_to_bytes
 
 ROOT = Path(__file__).resolve().parents[1]
 WARD_CSV = ROOT / "data_synthetic" / "ward.csv"
@@ -353,6 +354,25 @@ def test_data_notes_reach_the_client(client):
     assert text.startswith("mine.csv: 1 of ") and "/tmp" not in text
     job = client.post("/jobs", json={"model": "blinn", "data": noisy})
     assert job.status_code == 202 and job.json()["data_notes"] == notes
+    assert client.get(f"/jobs/{job.json()['id']}").json()["data_notes"] == notes
+
+
+def test_a_store_from_before_data_notes_gains_them(tmp_path):
+    """A job store written by the previous schema (no notes column) opens, keeps its
+    jobs, and answers them with no notes; new jobs keep theirs."""
+    path = tmp_path / "old.sqlite3"
+    old_schema = SCHEMA.replace(",\n    notes TEXT", "")
+    assert "notes" not in old_schema
+    with sqlite3.connect(path) as db:
+        db.executescript(old_schema)
+        db.execute(
+            "INSERT INTO jobs (id, status, model, options, data, created, attempt) "
+            "VALUES ('old', 'done', 'lambert', '{}', x'00', 0, 1)"
+        )
+    store = JobStore(path)
+    assert store.get("old")["data_notes"] == []
+    new = store.create("lambert", {}, b"\x00", ["request: 1 of 3 values are negative"])
+    assert store.get(new["id"])["data_notes"] == ["request: 1 of 3 values are negative"]
 
 
 def test_fit_file_errors_name_the_uploaded_file(client):
