@@ -291,8 +291,7 @@ def _canonical_samples(problem, names, samples: np.ndarray) -> np.ndarray:
             return [column[name]]
         return [column[f"{name}[{c}]"] for c in channels if f"{name}[{c}]" in column]
 
-    free = {name: columns_of(name) for name in (*problem.free_coefs, *column) if name in params}
-    free = {name: cols for name, cols in free.items() if cols}
+    free = {p.name: cols for p in model.params if (cols := columns_of(p.name))}
     base = {p.name: p.default for p in model.params}
     base.update(problem.fixed)
     out = samples.copy()

@@ -34,16 +34,31 @@ def energy_feasible(
 ) -> tuple[np.ndarray, int]:
     """Which draws (rows of ``theta`` with coefficients ``coefs`` (S, C, K)) keep
     every albedo row of the fit, a boolean (S,), and how many were checked before
-    ``deadline`` (``time.perf_counter()``); the unchecked ones are not kept."""
+    ``deadline`` (``time.perf_counter()``); the unchecked ones are not kept.
+
+    The rows depend on the shape parameters only, so they are made once per distinct
+    shape (a walker that stays put repeats its shape), in chain order: a check cut
+    by the deadline keeps a prefix of the chain, not a selection by value.
+    """
     rows = EnergyRows(problem)
+    shapes = theta[:, : target.d]
+    if target.d:
+        _, first, which = np.unique(shapes, axis=0, return_index=True, return_inverse=True)
+        which = which.reshape(-1)
+    else:
+        first, which = np.zeros(1, dtype=int), np.zeros(len(theta), dtype=int)
     ok = np.zeros(len(theta), dtype=bool)
-    for s, x in enumerate(theta[:, : target.d]):
+    checked = len(theta)
+    for u in np.argsort(first):
         if time.perf_counter() > deadline:
-            return ok, s
-        a, b = rows.rows(problem.shape_from_x(x))
-        albedo = coefs[s] @ a.T  # (C, T)
-        ok[s] = bool((albedo <= b + TOLERANCE).all())
-    return ok, len(theta)
+            checked = int(first[u])
+            break
+        a, b = rows.rows(problem.shape_from_x(shapes[first[u]]))
+        draws = np.flatnonzero(which == u)
+        albedo = coefs[draws] @ a.T  # (D, C, T)
+        ok[draws] = (albedo <= b + TOLERANCE).all(axis=(1, 2))
+    ok[checked:] = False
+    return ok, checked
 
 
 def restrict_to_energy(problem, target, theta, coefs, deadline=math.inf) -> tuple:

@@ -279,8 +279,8 @@ normal incidence and up to about 2.5 % at 75 degrees (``sigma0 / lambda = 0.03``
 ``tau / lambda = 0.5``); silver's visible index (``eta = 0.06``, ``k = 3.6``,
 ``F(0) = 0.98``) already exceeds it by about 0.5 % at oblique incidence, while
 gold (0.4, 2.4) and aluminium (1.0, 6.7) stay below 0.93. The directional-diffuse
-term is a Kirchhoff (physical-optics) approximation whose ``G / cos(theta_r)`` grows towards the
-horizon, so the lobe returns more than the spike loses. That is the published
+term is a Kirchhoff (physical-optics) approximation whose ``G / cos(theta_r)``
+grows towards the horizon, so the lobe returns more than the spike loses. That is the published
 model's behaviour and is not corrected here. ``a_ud`` adds itself to the
 albedo, so conserving energy also needs ``a_ud <= 1 - (spike + lobe)``.
 
