@@ -37,8 +37,8 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from brdffit.data.geometry import directions_from_angles  # noqa: E402
 from brdffit.errors import BrdfFitError  # noqa: E402
-from brdffit.geometry import directions_from_angles  # noqa: E402
 from brdffit.models import REGISTRY, get_model  # noqa: E402
 
 #: Prepared throughput asked for by the issue, in M samples/s.

@@ -26,7 +26,7 @@ import sys
 import bench_evaluate  # before numpy: it pins the thread pools to one core
 import numpy as np
 
-from brdffit.geometry import Geometry
+from brdffit.data.geometry import Geometry
 from brdffit.models import get_model
 from brdffit.models.he_terms import SERIES_TOLERANCE, dd_series
 from brdffit.models.wave import HE, series_arguments

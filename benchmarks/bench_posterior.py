@@ -15,7 +15,7 @@ integrated autocorrelation times of sampling after burn-in) with at least
   directly in numpy from the angles, so the half vector and cosines are
   recomputed at every call; started in a small ball around the fit (as emcee's
   tutorial does); run in chunks of 100 steps, each followed by the same
-  convergence test as brdffit's (``brdffit.posterior_chain.assess``).
+  convergence test as brdffit's (``brdffit.posterior.chain.assess``).
 * plain emcee, vectorised (``vectorize=True``, one call per step), for context.
 
 Run: ``python benchmarks/bench_posterior.py [--runs 3] [--cap 600]``. It prints
@@ -33,8 +33,8 @@ import emcee
 import numpy as np
 
 from brdffit import Measurements, fit, get_model
-from brdffit.posterior import sample_posterior
-from brdffit.posterior_chain import assess
+from brdffit.posterior.chain import assess
+from brdffit.posterior.sample import sample_posterior
 
 N_SAMPLES = 10_000
 SIGMA = 0.01

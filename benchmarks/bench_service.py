@@ -53,7 +53,7 @@ def body_of(data: brdffit.Measurements) -> bytes:
 def start_server(store: Path, workers: int, fit_workers: int) -> tuple[subprocess.Popen, str]:
     port = free_port()
     script = shutil.which("brdffit")
-    command = [script] if script else [sys.executable, "-m", "brdffit.cli"]
+    command = [script] if script else [sys.executable, "-m", "brdffit.cli.main"]
     process = subprocess.Popen(
         [
             *command,

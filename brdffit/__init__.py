@@ -1,13 +1,13 @@
 """brdffit: fit analytic BRDF models to measured reflectance, with uncertainties."""
 
-from .compare import compare
+from .data.geometry import Geometry
+from .data.measurements import Measurements
 from .errors import BrdfFitError, DataError, FitError, FormatError, ModelError, ParameterError
-from .fitting import fit
-from .geometry import Geometry
+from .fitting.compare import compare
+from .fitting.core import fit
 from .io import read, write
-from .measurements import Measurements
 from .models import REGISTRY, get_model, list_models
-from .posterior import sample_posterior
+from .posterior.sample import sample_posterior
 from .synth import synthesize
 
 __all__ = [

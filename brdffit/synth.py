@@ -25,9 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .data.geometry import Geometry, check_directions, directions_from_angles
+from .data.measurements import Measurements
 from .errors import DataError
-from .geometry import Geometry, check_directions, directions_from_angles
-from .measurements import Measurements
 from .models import get_model
 
 __all__ = ["GEOMETRIES", "gonio_angles", "hemisphere_angles", "synthesize"]

@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from brdffit.data.measurements import Measurements
 from brdffit.io.csv_format import write_csv
-from brdffit.measurements import Measurements
 from brdffit.models import REGISTRY
 from brdffit.synth import GONIO_DEFAULTS, hemisphere_angles, synthesize
 

@@ -53,7 +53,7 @@ def _error(status: int, message: str, field: str | None = None):
 
 @lru_cache(maxsize=256)
 def _properties(name: str) -> dict:
-    from brdffit.properties import model_properties
+    from brdffit.models.properties import model_properties
 
     return finite(model_properties(REGISTRY[name]))
 
@@ -64,7 +64,7 @@ def _model_out(model, properties: bool) -> dict:
         if model.name in REGISTRY:
             out["properties"] = _properties(model.name)
         else:
-            from brdffit.properties import model_properties
+            from brdffit.models.properties import model_properties
 
             out["properties"] = finite(model_properties(model))
     return out

@@ -2,9 +2,9 @@
 
 - :class:`DataIn` is :meth:`brdffit.Measurements.from_angles` (angles in degrees);
 - :class:`FitOptions` holds the keyword options of :func:`brdffit.fit`, and
-  :class:`PosteriorOptions` those of :func:`brdffit.posterior.sample_posterior`;
+  :class:`PosteriorOptions` those of :func:`brdffit.posterior.sample.sample_posterior`;
 - :class:`FitResultOut`, :class:`PosteriorOut` and :class:`ModelOut` are the
-  ``to_dict()`` of :class:`~brdffit.result.FitResult`, of the posterior and of
+  ``to_dict()`` of :class:`~brdffit.fitting.result.FitResult`, of the posterior and of
   :class:`~brdffit.models.base.Model`. Answers accept extra keys, so that a
   field added to a ``to_dict()`` reaches clients without a change here.
 """
@@ -17,8 +17,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 import brdffit
-from brdffit.losses import LOSSES
-from brdffit.posterior import sample_posterior
+from brdffit.fitting.losses import LOSSES
+from brdffit.posterior.sample import sample_posterior
 
 __all__ = [
     "DataIn",
@@ -106,7 +106,7 @@ class DataIn(BaseModel):
 
 
 class PosteriorOptions(BaseModel):
-    """Options of :func:`brdffit.posterior.sample_posterior`."""
+    """Options of :func:`brdffit.posterior.sample.sample_posterior`."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -138,7 +138,8 @@ class FitOptions(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     loss: LossName | None = Field(
-        FIT["loss"], description="The loss minimised (brdffit.losses); default: the library's."
+        FIT["loss"],
+        description="The loss minimised (brdffit.fitting.losses); default: the library's.",
     )
     fixed: dict[str, PerChannel] | None = Field(None, description="Parameters held fixed.")
     free: list[str] = Field(
@@ -248,7 +249,7 @@ class ParamOut(BaseModel):
 
 
 class ModelOut(BaseModel):
-    """``Model.to_dict()``, and ``properties`` (brdffit.properties.model_properties) if asked."""
+    """``Model.to_dict()``, and ``properties`` (brdffit.models.properties.model_properties) if asked."""
 
     model_config = ConfigDict(extra="allow")
 

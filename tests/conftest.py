@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from brdffit.geometry import directions_from_angles
+from brdffit.data.geometry import directions_from_angles
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 

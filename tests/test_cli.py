@@ -1,6 +1,6 @@
 """The ``brdffit`` command line: JSON that matches the library, errors, plots, progress.
 
-Commands run in-process through ``brdffit.cli.main`` (fast); one test runs the
+Commands run in-process through ``brdffit.cli.main.main`` (fast); one test runs the
 installed console script in a subprocess. Expected values come from the library
 called directly with the same arguments; directions from angles are computed
 here with the math module (MODELS.md convention).
@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 
 import brdffit
-from brdffit.cli import main
-from brdffit.cli_text import _pm
+from brdffit.cli.main import main
+from brdffit.cli.text import _pm
 
 ROOT = Path(__file__).resolve().parents[1]
 WARD = ROOT / "data_synthetic" / "ward.csv"
@@ -151,7 +151,9 @@ def test_plot_writes_pngs_matplotlib_reads_back(capsys, tmp_path):
     assert image.ndim == 3 and image.shape[0] > 300 and image.shape[1] > 300
     # Not a blank canvas: many distinct colours are drawn.
     assert len(np.unique(image.reshape(-1, image.shape[2]), axis=0)) > 50
-    pytest.importorskip("brdffit.plots", reason="brdffit.plots (corner_plot) is not there yet")
+    pytest.importorskip(
+        "brdffit.plot.corner", reason="brdffit.plot.corner (corner_plot) is not there yet"
+    )
     corner = tmp_path / "fit_corner.png"
     assert corner.read_bytes()[:8] == PNG_SIGNATURE and imread(corner).shape[0] > 300
     assert "fit_corner.png" in err
@@ -222,7 +224,7 @@ def test_bad_service_settings_from_the_environment_exit_2(capsys, monkeypatch):
 
 def test_console_script_reports_errors_without_traceback(tmp_path):
     script = shutil.which("brdffit")
-    argv = [script] if script else [sys.executable, "-m", "brdffit.cli"]
+    argv = [script] if script else [sys.executable, "-m", "brdffit.cli.main"]
     done = subprocess.run(
         [*argv, "fit", str(tmp_path / "none.csv"), "--model", "ward"],
         capture_output=True,
@@ -272,7 +274,7 @@ def test_models_filters_and_json_match_the_library(capsys):
 
 
 def test_models_properties_match_model_properties(capsys):
-    from brdffit.properties import model_properties
+    from brdffit.models.properties import model_properties
 
     _code, out, _err = run(
         capsys,
@@ -360,7 +362,7 @@ def test_evaluate_on_the_pairs_of_a_file_prints_csv(capsys):
 def test_compare_json_matches_the_library(capsys):
     code, out, err = run(capsys, "compare", WARD, "--models", "ward,blinn", "--json")
     assert code == 0, err
-    expected = brdffit.compare(brdffit.read(WARD), ["ward", "blinn"]).to_dict()
+    expected = brdffit.fitting.compare(brdffit.read(WARD), ["ward", "blinn"]).to_dict()
     assert without_seconds(json.loads(out)) == without_seconds(plain_json(expected))
 
 

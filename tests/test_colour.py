@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from brdffit import DataError
-from brdffit.colour import spectral_to_xyz, tristimulus_weights, xyz_to_srgb
+from brdffit.data.colour import spectral_to_xyz, tristimulus_weights, xyz_to_srgb
 
 CORNELL = np.arange(400, 701, 10.0)  # 31 bands, as in the Cornell files
 OBSERVER = "CIE 1931 2 Degree Standard Observer"

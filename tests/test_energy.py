@@ -1,5 +1,5 @@
 """Energy-conserving fits: directional albedo <= 1, checked by the independent
-adaptive quadrature of brdffit.properties."""
+adaptive quadrature of brdffit.models.properties."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from brdffit import FitError, Measurements, fit, get_model
-from brdffit.energy import EnergyRows
-from brdffit.geometry import directions_from_angles
-from brdffit.problem import Problem
-from brdffit.properties import albedo
+from brdffit.data.geometry import directions_from_angles
+from brdffit.fitting.energy import EnergyRows
+from brdffit.fitting.problem import Problem
+from brdffit.models.properties import albedo
 
 
 def data_of(model, params, n=500, seed=0, channels=("a", "b")):

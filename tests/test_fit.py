@@ -10,10 +10,10 @@ from conftest import random_params
 
 import brdffit
 from brdffit import FitError, Measurements, ParameterError, fit, get_model
-from brdffit.geometry import directions_from_angles
-from brdffit.losses import LOSSES
+from brdffit.data.geometry import directions_from_angles
+from brdffit.fitting.losses import LOSSES
+from brdffit.fitting.problem import Problem
 from brdffit.models import REGISTRY
-from brdffit.problem import Problem
 
 
 def gonio_pairs(n: int, seed: int = 0, max_theta: float = 80.0):
@@ -242,7 +242,9 @@ def test_objective_is_finite_everywhere_in_the_search_box(name):
 def test_compare_ranks_the_true_model_first():
     truth = {"kd": 0.1, "ks": 0.5, "alpha": 0.1}
     data = make_data("ward", truth, n=1200)
-    result = brdffit.compare(data, ["lambert", "ward", "blinn"], test_fraction=0.25, seed=1)
+    result = brdffit.fitting.compare(
+        data, ["lambert", "ward", "blinn"], test_fraction=0.25, seed=1
+    )
     assert result.best_by_heldout == "ward" and result.best_by_bic == "ward"
     lambert = next(e for e in result.entries if e.model == "lambert")
     assert lambert.rank_heldout == 3
@@ -282,7 +284,7 @@ def test_global_stage_finds_what_a_local_polish_from_the_default_start_misses():
 def test_large_data_search_globally_on_a_subsample_and_polish_on_all(monkeypatch):
     """Above GLOBAL_SAMPLES samples the global stage scouts a seeded subsample; the
     polish then uses every sample, so the answer is that of the full data."""
-    import brdffit.fitting as fitting
+    import brdffit.fitting.core as fitting
 
     monkeypatch.setattr(fitting, "GLOBAL_SAMPLES", 400)
     truth = {"kd": [0.2, 0.3], "ks": [1.0, 2.0], "n": 80.0}

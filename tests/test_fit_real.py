@@ -13,7 +13,7 @@ from conftest import shared_file
 from scipy_baseline import projected_baseline_fit
 
 import brdffit
-from brdffit.geometry import directions_from_angles
+from brdffit.data.geometry import directions_from_angles
 
 FILES = ["garnet_red.astm", "krylon_blue.astm", "acryl_blue.brdf"]
 MODELS = ["blinn", "ward", "cook_torrance", "ashikhmin_shirley"]
@@ -57,7 +57,7 @@ def test_real_fit_is_sound_and_beats_scipy(cornell, name):
 def test_cook_torrance_describes_the_paints_better_than_blinn(cornell):
     """A measured property of the data: the Fresnel-based model fits the grazing
     peaks of the paints that Blinn cannot."""
-    comparison = brdffit.compare(cornell, ["blinn", "cook_torrance"], test_fraction=0.2)
+    comparison = brdffit.fitting.compare(cornell, ["blinn", "cook_torrance"], test_fraction=0.2)
     assert comparison.best_by_heldout == "cook_torrance"
     assert comparison.best_by_bic == "cook_torrance"
 

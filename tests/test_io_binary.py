@@ -17,9 +17,9 @@ import pytest
 from conftest import hemisphere_pairs, shared_file
 
 from brdffit import DataError, FormatError, get_model
+from brdffit.data.measurements import Measurements
 from brdffit.io import merl
 from brdffit.io.mbsdf import read_mbsdf, read_mbsdf_arrays
-from brdffit.measurements import Measurements
 
 # --------------------------------------------------------------------------- MERL
 # Constants of BRDFRead.cpp.

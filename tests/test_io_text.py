@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from conftest import shared_file
 
+from brdffit.data.measurements import Measurements
 from brdffit.errors import DataError, FormatError
 from brdffit.io import FORMATS, detect_format, read, write
-from brdffit.measurements import Measurements
 
 CORNELL = ("garnet_red.astm", "krylon_blue.astm", "acryl_blue.brdf")
 

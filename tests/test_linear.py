@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
-from brdffit.linear import MAX_ENUMERATED, normal_equations, solve_bounded
+from brdffit.fitting.linear import MAX_ENUMERATED, normal_equations, solve_bounded
 
 
 @pytest.mark.parametrize("k", [1, 2, 3, 4, MAX_ENUMERATED + 1])
@@ -46,7 +46,7 @@ def test_per_channel_columns():
     x, rss = solve_bounded(normal_equations(a, y, None), np.zeros(k), np.full(k, np.inf))
     np.testing.assert_allclose(x, truth, rtol=1e-9)
     # The RSS comes from the normal equations (x'Gx - 2x'b + y'y): its absolute
-    # error is round-off of y'y, documented in brdffit.linear.
+    # error is round-off of y'y, documented in brdffit.fitting.linear.
     assert (rss <= 1e-13 * np.sum(y * y, axis=0)).all()
 
 

@@ -10,9 +10,9 @@ import warnings
 import numpy as np
 import pytest
 
+from brdffit.data.geometry import Geometry
+from brdffit.data.measurements import Measurements
 from brdffit.errors import DataError
-from brdffit.geometry import Geometry
-from brdffit.measurements import Measurements
 
 
 def direction(theta_deg: float, phi_deg: float) -> list:
@@ -231,7 +231,9 @@ def test_to_dict_is_json_ready_and_summary_counts():
 
 
 def test_spectral_to_xyz_and_srgb_go_through_brdffit_colour():
-    colour = pytest.importorskip("brdffit.colour", reason="brdffit/colour.py is not written yet")
+    colour = pytest.importorskip(
+        "brdffit.data.colour", reason="brdffit/colour.py is not written yet"
+    )
     wavelengths = np.arange(400.0, 701.0, 10.0)
     rng = np.random.default_rng(3)
     values = rng.uniform(0.0, 1.0, (20, wavelengths.size))

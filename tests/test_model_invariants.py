@@ -10,7 +10,7 @@ import pytest
 from conftest import hemisphere_pairs, random_params
 
 from brdffit import DataError, ModelError, ParameterError, get_model, list_models
-from brdffit.geometry import Geometry, directions_from_angles
+from brdffit.data.geometry import Geometry, directions_from_angles
 from brdffit.models import REGISTRY
 
 MODELS = sorted(REGISTRY)

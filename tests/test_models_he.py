@@ -19,8 +19,9 @@ import test_model_invariants as invariants
 from conftest import hemisphere_pairs
 from scipy.optimize import least_squares
 
+from brdffit.data.geometry import MIN_COSINE, Geometry, directions_from_angles
 from brdffit.errors import ParameterError
-from brdffit.geometry import MIN_COSINE, Geometry, directions_from_angles
+from brdffit.fitting.problem import Problem
 from brdffit.models import REGISTRY
 from brdffit.models.base import Design, Model
 from brdffit.models.he_terms import (
@@ -31,9 +32,8 @@ from brdffit.models.he_terms import (
     shadowing,
     z0_ratio,
 )
+from brdffit.models.properties import albedo
 from brdffit.models.wave import HE, MODELS, _v_terms, he_components
-from brdffit.problem import Problem
-from brdffit.properties import albedo
 from brdffit.synth import synthesize
 
 PARAMS = dict(a_ud=0.0, sigma0=0.18, tau=3.0, eta=1.5, k=0.0, aperture=1.0, wavelength=550.0)
@@ -104,7 +104,7 @@ def ref_series(g, a):
 def ref_he(wi, wo, p):
     """rho_s + rho_dd (1/sr) for one pair, and the bound on the series' truncation.
 
-    Cosines are clamped at MIN_COSINE as brdffit.geometry does for every model."""
+    Cosines are clamped at MIN_COSINE as brdffit.data.geometry does for every model."""
     ci, co = max(wi[2], MIN_COSINE), max(wo[2], MIN_COSINE)
     lam = p["wavelength"] * 1e-3
     sigma = ref_sigma(ci, co, p["tau"], p["sigma0"])

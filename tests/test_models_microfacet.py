@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from conftest import hemisphere_pairs, random_params
 
-from brdffit.geometry import MIN_COSINE, Geometry, directions_from_angles
+from brdffit.data.geometry import MIN_COSINE, Geometry, directions_from_angles
 from brdffit.models import REGISTRY, microfacet, renderers
 
 MODELS = {m.name: m for m in (*microfacet.MODELS, *renderers.MODELS)}

@@ -21,14 +21,14 @@ from scipy.integrate import trapezoid
 from scipy.stats import binom
 
 from brdffit import FitError, Measurements, fit
-from brdffit.geometry import directions_from_angles
+from brdffit.data.geometry import directions_from_angles
+from brdffit.fitting.problem import Problem
 from brdffit.models import REGISTRY, get_model
-from brdffit.plots import corner_plot, trace_plot
-from brdffit.posterior import Posterior, _canonical_samples, sample_posterior
-from brdffit.posterior_chain import integrated_time
-from brdffit.posterior_target import Target
-from brdffit.problem import Problem
-from brdffit.properties import albedo
+from brdffit.models.properties import albedo
+from brdffit.plot.corner import corner_plot, trace_plot
+from brdffit.posterior.chain import integrated_time
+from brdffit.posterior.sample import Posterior, _canonical_samples, sample_posterior
+from brdffit.posterior.target import Target
 
 # Noisy synthetic values below zero are expected here; Measurements warns about them.
 pytestmark = pytest.mark.filterwarnings("ignore:.*values are negative:UserWarning")
@@ -417,7 +417,7 @@ def test_fit_weights_carry_into_the_likelihood():
 def test_energy_conserving_fit_gives_a_posterior_within_the_bound():
     """Ward data whose true albedo peaks at 0.998: the plain posterior spills past 1,
     that of the energy-conserving fit keeps only draws with albedo <= 1, checked
-    here by the adaptive quadrature of brdffit.properties, and says what it dropped."""
+    here by the adaptive quadrature of brdffit.models.properties, and says what it dropped."""
     rng = np.random.default_rng(3)
     n = 400
     wi = directions_from_angles(rng.uniform(0, 80, n), np.zeros(n))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from brdffit.posterior_truncated import draw_box_gaussian
+from brdffit.posterior.truncnorm import draw_box_gaussian
 
 
 def test_draws_obey_a_single_half_space_with_two_coefficients():

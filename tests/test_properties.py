@@ -1,4 +1,4 @@
-"""Albedo quadrature, reciprocity measure and model properties (brdffit.properties).
+"""Albedo quadrature, reciprocity measure and model properties (brdffit.models.properties).
 
 Reference values are closed forms or an independent integration written here:
 scalar ``math`` code integrated over the half-vector domain with scipy's
@@ -18,7 +18,7 @@ from scipy import integrate
 from brdffit import DataError, ModelError, ParameterError, get_model, list_models
 from brdffit.models import REGISTRY
 from brdffit.models.base import Classification, Param, diffuse_plus_lobe
-from brdffit.properties import albedo, model_properties, reciprocity_error
+from brdffit.models.properties import albedo, model_properties, reciprocity_error
 
 ISOTROPIC = Classification("empirical", "isotropic", "cosine", "light")
 PHYSICAL = Classification("physical", "isotropic", "angle", "material")

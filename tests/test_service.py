@@ -19,7 +19,7 @@ from fastapi.testclient import TestClient
 from job_polling import wait_for
 
 import brdffit
-from brdffit.properties import model_properties
+from brdffit.models.properties import model_properties
 from service import Settings, create_app
 from service.convert import finite
 from service.jobs import FitPool

@@ -42,7 +42,7 @@ class Server:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         script = shutil.which("brdffit")
-        command = [script] if script else [sys.executable, "-m", "brdffit.cli"]
+        command = [script] if script else [sys.executable, "-m", "brdffit.cli.main"]
         self.log = open(log, "ab")
         self.process = subprocess.Popen(
             [

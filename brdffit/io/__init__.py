@@ -22,8 +22,8 @@ import struct
 from collections.abc import Callable
 from typing import NamedTuple
 
+from ..data.measurements import Measurements
 from ..errors import DataError, FormatError
-from ..measurements import Measurements
 from .astm import read_astm, read_pbrt, write_astm
 from .csv_format import read_csv, write_csv
 from .npz_format import read_npz, write_npz

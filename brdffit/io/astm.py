@@ -22,8 +22,8 @@ import os
 
 import numpy as np
 
+from ..data.measurements import Measurements
 from ..errors import FormatError
-from ..measurements import Measurements
 from .csv_format import build, from_table, read_text
 
 __all__ = ["format_astm", "parse_astm", "parse_pbrt", "read_astm", "read_pbrt", "write_astm"]

@@ -19,8 +19,8 @@ import warnings
 
 import numpy as np
 
+from ..data.measurements import ANGLE_COLUMNS, Measurements
 from ..errors import DataError, FormatError
-from ..measurements import ANGLE_COLUMNS, Measurements
 
 __all__ = ["format_csv", "parse_csv", "read_csv", "write_csv"]
 

@@ -196,11 +196,11 @@ def read_mbsdf_arrays(path) -> MbsdfSamples:
 
 
 def read_mbsdf(path):
-    """Read the reflection part of an MBSDF file as :class:`~brdffit.measurements.Measurements`.
+    """Read the reflection part of an MBSDF file as :class:`~brdffit.data.measurements.Measurements`.
 
     Units are not stated by the format; they are taken as 1/sr (a BRDF).
     """
-    from ..measurements import Measurements
+    from ..data.measurements import Measurements
 
     s = read_mbsdf_arrays(path)
     return Measurements(s.wi, s.wo, s.values, channels=s.channels, source=str(path), units="1/sr")

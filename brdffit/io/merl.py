@@ -255,12 +255,12 @@ def read_merl_arrays(path, subsample: int | None = None) -> MerlSamples:
 
 
 def read_merl(path, subsample: int | None = None):
-    """Read a MERL file as :class:`~brdffit.measurements.Measurements` (channels r, g, b).
+    """Read a MERL file as :class:`~brdffit.data.measurements.Measurements` (channels r, g, b).
 
     See :func:`read_merl_arrays` for ``subsample``; cells without a measurement
     (negative) and cells whose centre has a direction below the horizon are dropped.
     """
-    from ..measurements import Measurements
+    from ..data.measurements import Measurements
 
     s = read_merl_arrays(path, subsample)
     return Measurements(s.wi, s.wo, s.values, channels=CHANNELS, source=str(path), units="1/sr")

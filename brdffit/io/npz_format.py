@@ -13,8 +13,8 @@ import zipfile
 
 import numpy as np
 
+from ..data.measurements import ANGLE_COLUMNS, Measurements
 from ..errors import DataError, FormatError
-from ..measurements import ANGLE_COLUMNS, Measurements
 
 __all__ = ["read_npz", "write_npz"]
 

@@ -428,13 +428,13 @@ def read_rgl_arrays(path) -> RglSamples:
 
 
 def read_rgl(path):
-    """Read an isotropic RGB RGL ``.bsdf`` file as :class:`~brdffit.measurements.Measurements`.
+    """Read an isotropic RGB RGL ``.bsdf`` file as :class:`~brdffit.data.measurements.Measurements`.
 
     Channels r, g, b (linear sRGB, as stored), units 1/sr. A ``UserWarning``
     says how many stored pairs were dropped because a direction is not above
     the horizon.
     """
-    from ..measurements import Measurements
+    from ..data.measurements import Measurements
 
     s = read_rgl_arrays(path)
     dropped = s.n_incident_below_horizon + s.n_below_horizon + s.n_merged

@@ -28,14 +28,14 @@ def get_model(name) -> Model:
     """The registered model called ``name``; an unknown name lists close matches.
 
     A sum of registered names joined by ``+`` (``lambert+cook_torrance+cook_torrance``)
-    gives a sum of lobes (see :mod:`brdffit.composite`).
+    gives a sum of lobes (see :mod:`brdffit.models.composite`).
     """
     if isinstance(name, Model):
         return name
     if not isinstance(name, str):
         raise ModelError(f"a model name must be a string, not {type(name).__name__}", "model")
     if "+" in name:
-        from ..composite import sum_of_lobes
+        from .composite import sum_of_lobes
 
         return sum_of_lobes([get_model(part.strip()) for part in name.split("+")])
     try:

@@ -15,8 +15,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..data.geometry import MIN_COSINE, Geometry
 from ..errors import ParameterError
-from ..geometry import MIN_COSINE, Geometry
 from .base import Classification, Design, Model, Param, diffuse_plus_lobe
 from .empirical import exponent
 

@@ -8,7 +8,7 @@ where the ``shape`` parameters enter non-linearly (exponents, roughness,
 refractive index) and the coefficients ``c_j`` enter linearly (``kd``, ``ks``,
 one value per colour channel). The model's *design function* returns the
 offset and the columns for given shape parameters on a prepared
-:class:`~brdffit.geometry.Geometry`; evaluation combines them with the
+:class:`~brdffit.data.geometry.Geometry`; evaluation combines them with the
 coefficients, and the fitting engine solves for the coefficients by
 non-negative least squares instead of searching them (variable projection).
 
@@ -28,8 +28,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..data.geometry import Geometry
 from ..errors import ParameterError
-from ..geometry import Geometry
 
 __all__ = ["Param", "Classification", "Design", "Model", "diffuse_plus_lobe", "INV_PI"]
 

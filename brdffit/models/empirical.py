@@ -2,7 +2,7 @@
 and the qualitative Oren-Nayar model.
 
 Each lobe is a plain vectorised function of a prepared
-:class:`~brdffit.geometry.Geometry` and its shape parameters; the model is
+:class:`~brdffit.data.geometry.Geometry` and its shape parameters; the model is
 ``kd / pi + ks * lobe`` (MODELS.md). What depends on the directions only
 (``ln(N.H)``, ``ln(R.V)``, ``1 - N.H``, ``theta_h^2``...) is cached on the geometry,
 so an evaluation does only the arithmetic that involves a parameter, in place.
@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from ..geometry import Geometry
+from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param, diffuse_plus_lobe
 
 __all__ = ["MODELS", "blake_bounds", "exponent"]

@@ -4,7 +4,7 @@ He, Torrance, Sillion and Greenberg, "A comprehensive physical model for light
 reflection", SIGGRAPH 1991 (Computer Graphics 25(4)); equation numbers are the
 paper's, as the bbm library's he.h cites them. Every function here is a numpy
 function of cosines and parameters, with no knowledge of
-:class:`~brdffit.geometry.Geometry`, so the tests can check each one on its own
+:class:`~brdffit.data.geometry.Geometry`, so the tests can check each one on its own
 against scalar code. The model that assembles them, and the notes on what was
 checked against which source, are in :mod:`brdffit.models.wave`.
 

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ..geometry import Geometry
+from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param
 from .shared import fresnel_dielectric, schlick_weight, vcavity_g
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry import Geometry
+from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model
 from .microfacet import diffuse_params, f0_param, inv_4_cos, roughness, schlick_fresnel
 from .shared import (

@@ -2,7 +2,7 @@
 
 The terms themselves (shadowing, effective roughness, the series over m) are
 plain functions in :mod:`brdffit.models.he_terms`; this module assembles them on
-a prepared :class:`~brdffit.geometry.Geometry`, caching what depends on the
+a prepared :class:`~brdffit.data.geometry.Geometry`, caching what depends on the
 directions only.
 """
 
@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ..geometry import Geometry
+from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param
 from .he_terms import (
     SERIES_TOLERANCE,

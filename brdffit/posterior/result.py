@@ -1,7 +1,7 @@
 """The Posterior: samples of a fit's posterior, their summary and diagnostics.
 
 Built by :func:`brdffit.sample_posterior`; frozen like
-:class:`~brdffit.result.FitResult`: every array is read-only and every
+:class:`~brdffit.fitting.result.FitResult`: every array is read-only and every
 mapping a read-only view, so a Posterior can be shared and cached.
 """
 
@@ -14,8 +14,8 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .errors import FitError
-from .result import _jsonable
+from ..errors import FitError
+from ..fitting.result import _jsonable
 
 __all__ = ["Posterior", "NOISE_MEANING"]
 

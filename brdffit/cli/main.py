@@ -16,10 +16,10 @@ import warnings
 
 import numpy as np
 
-from . import __version__
-from .cli_text import fit_text, plain, print_json, progress_for, shout, table
-from .errors import BrdfFitError
-from .models.base import HIGHLIGHTS, OPERANDS, ORIGINS, SYMMETRIES
+from .. import __version__
+from ..errors import BrdfFitError
+from ..models.base import HIGHLIGHTS, OPERANDS, ORIGINS, SYMMETRIES
+from .text import fit_text, plain, print_json, progress_for, shout, table
 
 __all__ = ["main", "build_parser"]
 
@@ -80,7 +80,7 @@ def _angles(items) -> tuple:
 
 
 def _read(args):
-    from .io import read
+    from ..io import read
 
     options = {"subsample": args.subsample} if getattr(args, "subsample", None) else {}
     data = read(args.file, format=getattr(args, "format", None), **options)
@@ -91,7 +91,7 @@ def _read(args):
 
 # ----------------------------------------------------------------- commands
 def cmd_models(args) -> int:
-    from .models import list_models
+    from ..models import list_models
 
     filters = {axis: getattr(args, axis) for axis in AXES if getattr(args, axis)}
     if args.wave_optics is not None:
@@ -99,7 +99,7 @@ def cmd_models(args) -> int:
     models = list_models(**filters)
     found = [m.to_dict() for m in models]
     if args.properties:
-        from .properties import model_properties
+        from ..models.properties import model_properties
 
         progress = progress_for(args, "measuring")
         for i, (model, out) in enumerate(zip(models, found)):
@@ -136,7 +136,7 @@ def _posterior_options(args, progress) -> dict:
 
 
 def cmd_fit(args) -> int:
-    from .fitting import fit
+    from ..fitting.core import fit
 
     data = _read(args)
     fit_progress = progress_for(args, f"fitting {args.model}")
@@ -172,11 +172,11 @@ def cmd_fit(args) -> int:
 
 
 def _plots(path: str, data, result, label: str) -> None:
-    from .plot_fit import plot_fit
+    from ..plot.fit import plot_fit
 
     written = [plot_fit(data, result, path, title=label)]
     if result.posterior is not None:
-        from .plots import corner_plot
+        from ..plot.corner import corner_plot
 
         stem = path[:-4] if path.lower().endswith(".png") else path
         written.append(f"{stem}_corner.png")
@@ -185,7 +185,7 @@ def _plots(path: str, data, result, label: str) -> None:
 
 
 def cmd_compare(args) -> int:
-    from .compare import compare
+    from ..fitting.compare import compare
 
     models = [m.strip() for m in args.models.split(",") if m.strip()]
     comparison = compare(
@@ -207,8 +207,8 @@ def cmd_compare(args) -> int:
 
 
 def cmd_synth(args) -> int:
-    from .io import write
-    from .synth import synthesize
+    from ..io import write
+    from ..synth import synthesize
 
     data = synthesize(
         args.model,
@@ -228,8 +228,8 @@ def cmd_synth(args) -> int:
 
 
 def cmd_evaluate(args) -> int:
-    from .measurements import Measurements
-    from .models import get_model
+    from ..data.measurements import Measurements
+    from ..models import get_model
 
     if bool(args.angles) == bool(args.file):
         raise CliError(
@@ -302,7 +302,7 @@ _count = _number(int, 1, 10**9, "a whole number >= 1")
 
 
 def _add_fit_options(p) -> None:
-    from .losses import LOSSES
+    from ..fitting.losses import LOSSES
 
     p.add_argument(
         "file", help="a data file: CSV, ASTM, pbrt .brdf, MERL .binary, MBSDF, NPZ, RGL .bsdf"

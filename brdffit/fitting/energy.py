@@ -8,7 +8,7 @@ in a model's coefficients: with the design ``f = offset + sum_j c_j column_j``,
 where ``a_j`` is the albedo of column j alone. So for each shape the fitting
 engine tries, the bound ``a(theta_i) <= 1`` on a grid of incidence angles is a
 set of linear inequality rows on the coefficients, and the bounded least-squares
-solve of :mod:`brdffit.linear` enforces it exactly, channel by channel. The
+solve of :mod:`brdffit.fitting.linear` enforces it exactly, channel by channel. The
 optimiser over the shape parameters needs no constraint of its own: every
 point it evaluates already carries the best coefficients that conserve energy,
 and a shape for which no coefficients can (its offset alone reflects more than
@@ -16,9 +16,9 @@ it receives) gets the objective's "infeasible" value, a barrier nlopt stays
 away from.
 
 The albedos of the columns come from the quadrature of
-:mod:`brdffit.properties` (graded about the mirror direction) at one fixed,
+:mod:`brdffit.models.properties` (graded about the mirror direction) at one fixed,
 moderate resolution (``ROW_AZIMUTHS`` x ``ROW_INTERVALS``): its nodes are
-prepared once per fit as a :class:`~brdffit.geometry.Geometry`, so each step
+prepared once per fit as a :class:`~brdffit.data.geometry.Geometry`, so each step
 evaluates the model's design there and takes weighted sums. Anisotropic models
 get the incidence azimuths 0, 45 and 90 degrees as well. The fit then checks
 its result with the adaptive full-accuracy quadrature (``rtol = 1e-6``) on a
@@ -29,9 +29,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import FitError
-from .geometry import Geometry
-from .properties import ANISOTROPIC_PHI_I, albedo, quadrature_nodes
+from ..data.geometry import Geometry
+from ..errors import FitError
+from ..models.properties import ANISOTROPIC_PHI_I, albedo, quadrature_nodes
 
 __all__ = ["EnergyRows", "check_energy", "INCIDENCE_GRID", "CHECK_GRID"]
 

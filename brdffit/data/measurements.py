@@ -19,9 +19,9 @@ import re
 
 import numpy as np
 
-from .errors import DataError
+from ..errors import DataError
+from ..notes import note
 from .geometry import Geometry, angles_from_directions, check_directions, directions_from_angles
-from .notes import note
 
 __all__ = ["Measurements"]
 
@@ -375,7 +375,7 @@ class Measurements:
 
     # ---------------------------------------------------------------- colour
     def to_xyz(self) -> Measurements:
-        """CIE XYZ channels from spectral channels, through :mod:`brdffit.colour`.
+        """CIE XYZ channels from spectral channels, through :mod:`brdffit.data.colour`.
 
         The spectral-to-XYZ map is linear (integration against the colour
         matching functions), ``XYZ = values @ M``; sigma is propagated as for

@@ -18,10 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import FitError
-from .fitting import fit
+from ..errors import FitError
+from ..models import get_model
+from .core import fit
 from .losses import LossContext, get_loss
-from .models import get_model
 from .result import FitResult
 
 __all__ = ["Comparison", "ComparisonEntry", "compare"]

@@ -19,7 +19,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .errors import DataError
+from ..errors import DataError
 
 __all__ = ["Geometry", "check_directions", "directions_from_angles", "angles_from_directions"]
 

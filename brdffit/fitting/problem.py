@@ -4,7 +4,7 @@
 It holds the geometry of the data (prepared once), the search space of the
 free shape parameters (log10 for log-scale ones, bounds from the registry),
 and for any point of that space it solves the linear coefficients (kd, ks...
-per channel) by bounded least squares (:mod:`brdffit.linear`) and returns the
+per channel) by bounded least squares (:mod:`brdffit.fitting.linear`) and returns the
 exact loss. The optimiser therefore searches only the few shape parameters,
 shared by all channels.
 """
@@ -15,10 +15,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .errors import FitError, ParameterError
+from ..errors import FitError, ParameterError
+from ..models import get_model
 from .linear import normal_equations, solve_bounded, weighted_target
 from .losses import LossContext, get_loss
-from .models import get_model
 
 __all__ = ["Problem", "Solution"]
 
@@ -45,7 +45,7 @@ class Problem:
     data : Measurements
     model : str or Model
     loss : str
-        A name of :data:`brdffit.losses.LOSSES`.
+        A name of :data:`brdffit.fitting.losses.LOSSES`.
     weights : array_like (N,), optional
         Non-negative per-sample weights (scaled to mean 1).
     fixed : mapping, optional

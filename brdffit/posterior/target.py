@@ -1,4 +1,4 @@
-"""The log-posterior that :mod:`brdffit.posterior` samples, with the linear coefficients
+"""The log-posterior that :mod:`brdffit.posterior.sample` samples, with the linear coefficients
 integrated out analytically.
 
 The statistical model
@@ -49,7 +49,7 @@ upper bound.
 
 Given a sampled ``(x, lam)`` the coefficients are drawn exactly from the
 Gaussian ``N(bhat_c, G_c^-1 / lam)`` restricted to that region (rejection,
-then Gibbs sweeps when it holds little mass: :mod:`brdffit.posterior_truncated`),
+then Gibbs sweeps when it holds little mass: :mod:`brdffit.posterior.truncnorm`),
 so they are reported like every other parameter. Why not sample them with emcee: they are ``K x C``
 dimensions (6 for RGB, 60 for 30 spectral bands), exactly Gaussian given the
 shape, and the affine-invariant ensemble slows down with dimension.
@@ -62,9 +62,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import log_ndtr
 
-from .errors import FitError
-from .losses import LossContext
-from .posterior_truncated import LOG_2PI, draw_box_gaussian, log_mass
+from ..errors import FitError
+from ..fitting.losses import LossContext
+from .truncnorm import LOG_2PI, draw_box_gaussian, log_mass
 
 __all__ = ["Target", "NOISE_MODELS"]
 
@@ -82,7 +82,7 @@ class _NotBatched(Exception):
 
 
 class Target:
-    """Log-posterior of ``(x, log10 noise)`` for a :class:`~brdffit.problem.Problem`.
+    """Log-posterior of ``(x, log10 noise)`` for a :class:`~brdffit.fitting.problem.Problem`.
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """The posterior of an energy-conserving fit: draws whose albedo exceeds 1 dropped.
 
 A fit made with ``energy_conserving=True`` bounds the directional albedo of
-its model by 1 at the incidence angles of :mod:`brdffit.energy`; the
+its model by 1 at the incidence angles of :mod:`brdffit.fitting.energy`; the
 posterior of such a fit is the plain posterior restricted to the same set.
 The sampler draws from the plain posterior (shape parameters by MCMC,
 coefficients from their conditional), and this module keeps the joint draws
@@ -20,8 +20,8 @@ import time
 
 import numpy as np
 
-from .energy import EnergyRows
-from .errors import FitError
+from ..errors import FitError
+from ..fitting.energy import EnergyRows
 
 __all__ = ["energy_feasible", "restrict_to_energy"]
 

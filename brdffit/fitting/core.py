@@ -3,7 +3,7 @@
 ``fit(data, model)`` estimates the parameters of any registered model (or sum
 of lobes) from measurements. The optimiser searches only the free shape
 parameters (log10 space for log-scale ones); the linear coefficients are solved
-at every step (:class:`~brdffit.problem.Problem`). The strategy:
+at every step (:class:`~brdffit.fitting.problem.Problem`). The strategy:
 
 1. a global nlopt algorithm over the whole box of the shape parameters
    (default ``GN_CRS2_LM``, chosen by the comparison in
@@ -25,9 +25,9 @@ from dataclasses import dataclass, replace
 import nlopt
 import numpy as np
 
-from .errors import FitError
+from ..errors import FitError
+from ..models import get_model
 from .losses import LossContext
-from .models import get_model
 from .problem import Problem
 from .result import FitResult, metrics_of
 
@@ -255,7 +255,7 @@ def fit(
         or a Model.
     loss : str, optional
         ``l2``, ``cosine``, ``log``, ``cbrt``, ``relative`` or ``chi2``
-        (:mod:`brdffit.losses`). Default: ``chi2`` when the data give per-sample
+        (:mod:`brdffit.fitting.losses`). Default: ``chi2`` when the data give per-sample
         sigma (weighted least squares, the maximum-likelihood fit for Gaussian
         noise of that sigma), ``l2`` otherwise.
     weights : array_like (N,), optional
@@ -282,7 +282,7 @@ def fit(
     energy_conserving : bool
         Constrain the directional albedo to at most 1 at every incidence angle
         (0 to 85 degrees by 5, enforced exactly on the linear coefficients at
-        every step; :mod:`brdffit.energy`). The result is then checked with the
+        every step; :mod:`brdffit.fitting.energy`). The result is then checked with the
         full-accuracy quadrature from 0 to 89 degrees: ``metrics["max_albedo"]``
         and the message say what was found.
     progress : callable, optional
@@ -352,7 +352,7 @@ def fit(
     )
     result = _result(problem, search, code, time.perf_counter() - t0, locals())
     if uncertainty:
-        from .posterior import sample_posterior
+        from ..posterior.sample import sample_posterior
 
         post = sample_posterior(data, result, **dict(posterior_options or {}))
         result = replace(result, posterior=post)

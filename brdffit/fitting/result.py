@@ -43,7 +43,7 @@ class FitResult:
         The value of the minimised loss.
     loss_name : str
     metrics : mapping
-        Every named loss of :data:`brdffit.losses.LOSSES` at the fitted params
+        Every named loss of :data:`brdffit.fitting.losses.LOSSES` at the fitted params
         (``chi2`` only when the data give sigma), ``rmse``, ``aic``, ``bic``.
     n_samples, n_channels, n_values : int
         Samples, channels, and their product (the observations).

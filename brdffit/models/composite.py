@@ -29,9 +29,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import ModelError
-from .geometry import Geometry
-from .models.base import Classification, Design, Model
+from ..data.geometry import Geometry
+from ..errors import ModelError
+from .base import Classification, Design, Model
 
 __all__ = ["component_labels", "sum_of_lobes"]
 

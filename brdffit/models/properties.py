@@ -54,10 +54,10 @@ from functools import cache
 
 import numpy as np
 
-from .errors import DataError, ParameterError
-from .geometry import Geometry, directions_from_angles
-from .models import get_model
-from .models.base import Model
+from ..data.geometry import Geometry, directions_from_angles
+from ..errors import DataError, ParameterError
+from . import get_model
+from .base import Model
 
 __all__ = ["Albedo", "ReciprocityError", "albedo", "reciprocity_error", "model_properties"]
 

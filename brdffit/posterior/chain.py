@@ -1,4 +1,4 @@
-"""Running the ensemble for :mod:`brdffit.posterior`: start, moves, convergence.
+"""Running the ensemble for :mod:`brdffit.posterior.sample`: start, moves, convergence.
 
 Start. The walkers start from the Laplace approximation of the posterior: a
 few Newton steps from the fit on the log-posterior, with the Hessian by central

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import directions_from_angles
-from .models import get_model
+from ..data.geometry import directions_from_angles
+from ..models import get_model
 
 __all__ = ["plot_fit", "plane_of_incidence"]
 

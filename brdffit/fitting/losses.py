@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import FitError
+from ..errors import FitError
 
 __all__ = ["LOSSES", "Loss", "LossContext", "get_loss"]
 

@@ -1,6 +1,6 @@
 """The Gaussian restricted to a box: its log-mass and draws from it.
 
-The linear coefficients of :mod:`brdffit.posterior_target` have a flat prior
+The linear coefficients of :mod:`brdffit.posterior.target` have a flat prior
 on their bounds (kd in [0, 1], ks >= 0...), so given the shape parameters they
 are Gaussian restricted to that box. These are the two things the sampler
 needs of such a distribution, accurate in the tails.

@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .errors import FitError
+from ..errors import FitError
 
 __all__ = ["corner_plot", "trace_plot"]
 

@@ -43,7 +43,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .errors import DataError
+from ..errors import DataError
 
 __all__ = ["OBSERVER", "spectral_to_xyz", "tristimulus_weights", "xyz_to_srgb"]
 

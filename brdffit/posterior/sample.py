@@ -6,9 +6,9 @@ The fit's free shape parameters, in its search space (log10 for log-scale
 ones), and, unless the data's sigma is used, the noise as ``log10(noise)``,
 with emcee (Foreman-Mackey et al. 2013, PASP 125, 306). The linear
 coefficients (kd, ks... per channel) are integrated out analytically and then
-drawn exactly for every kept sample (:mod:`brdffit.posterior_target`, which
+drawn exactly for every kept sample (:mod:`brdffit.posterior.target`, which
 states the likelihood and the noise models); the moves, the start and the
-convergence rule are in :mod:`brdffit.posterior_chain`.
+convergence rule are in :mod:`brdffit.posterior.chain`.
 
 Priors. Uniform within each parameter's bounds in the search space: uniform
 for linear-scale parameters, log-uniform for log-scale ones (uniform in
@@ -29,7 +29,7 @@ The fit's sample weights (``fit_result.options["weights"]``, recorded by
 samples whose weight is not zero (a sample of weight 0 leaves the likelihood).
 The posterior of an ``energy_conserving`` fit is restricted as the fit was, to
 directional albedo <= 1, by dropping the draws that exceed it
-(:mod:`brdffit.posterior_energy`).
+(:mod:`brdffit.posterior.energy`).
 """
 
 from __future__ import annotations
@@ -42,8 +42,10 @@ from typing import Any
 
 import numpy as np
 
-from .errors import FitError
-from .posterior_chain import (
+from ..errors import FitError
+from ..fitting.problem import Problem
+from ..fitting.result import FitResult
+from .chain import (
     TOL,
     PosteriorProgress,
     StudentIndependence,
@@ -51,11 +53,9 @@ from .posterior_chain import (
     run_chain,
     start_walkers,
 )
-from .posterior_energy import restrict_to_energy
-from .posterior_result import NOISE_MEANING, Posterior
-from .posterior_target import NOISE_MODELS, Target
-from .problem import Problem
-from .result import FitResult
+from .energy import restrict_to_energy
+from .result import NOISE_MEANING, Posterior
+from .target import NOISE_MODELS, Target
 
 __all__ = ["Posterior", "PosteriorProgress", "sample_posterior", "NOISE_MODELS", "NOISE_MEANING"]
 
@@ -162,7 +162,7 @@ def sample_posterior(
         seed); the same seed gives the same samples.
     noise : {"given", "absolute", "relative"}, optional
         Default ``"given"`` when the data have sigma, else ``"absolute"``
-        (:mod:`brdffit.posterior_target`).
+        (:mod:`brdffit.posterior.target`).
     progress : callable, optional
         Called with a :class:`PosteriorProgress` at every convergence check.
 

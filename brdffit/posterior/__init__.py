@@ -1,0 +1,12 @@
+"""Posteriors: emcee samples around a fit, with the linear parameters marginalised.
+
+:mod:`.target` is the log-posterior, :mod:`.truncnorm` the box-restricted
+Gaussian of the linear coefficients, :mod:`.chain` runs and diagnoses emcee,
+:mod:`.energy` keeps draws that conserve energy, :mod:`.result` holds the
+:class:`Posterior`; :func:`sample_posterior` ties them together.
+"""
+
+from .result import Posterior
+from .sample import sample_posterior
+
+__all__ = ["Posterior", "sample_posterior"]
