@@ -22,8 +22,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from conftest import hemisphere_pairs, random_params  # noqa: E402
-from test_fit import make_data  # noqa: E402
+from helpers import (  # noqa: E402
+    hemisphere_pairs,
+    make_data,
+    random_params,
+)
 
 import brdffit  # noqa: E402
 from brdffit.models import REGISTRY  # noqa: E402

@@ -249,7 +249,7 @@ class ParamOut(BaseModel):
 
 
 class ModelOut(BaseModel):
-    """``Model.to_dict()``, and ``properties`` (brdffit.models.properties.model_properties) if asked."""
+    """``Model.to_dict()``, and ``properties`` (``model_properties``) if asked."""
 
     model_config = ConfigDict(extra="allow")
 

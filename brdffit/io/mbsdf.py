@@ -196,7 +196,7 @@ def read_mbsdf_arrays(path) -> MbsdfSamples:
 
 
 def read_mbsdf(path):
-    """Read the reflection part of an MBSDF file as :class:`~brdffit.data.measurements.Measurements`.
+    """Read the reflection part of an MBSDF file as :class:`~brdffit.Measurements`.
 
     Units are not stated by the format; they are taken as 1/sr (a BRDF).
     """

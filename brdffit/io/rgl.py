@@ -428,7 +428,7 @@ def read_rgl_arrays(path) -> RglSamples:
 
 
 def read_rgl(path):
-    """Read an isotropic RGB RGL ``.bsdf`` file as :class:`~brdffit.data.measurements.Measurements`.
+    """Read an isotropic RGB RGL ``.bsdf`` file as :class:`~brdffit.Measurements`.
 
     Channels r, g, b (linear sRGB, as stored), units 1/sr. A ``UserWarning``
     says how many stored pairs were dropped because a direction is not above

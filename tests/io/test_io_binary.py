@@ -14,7 +14,7 @@ import tracemalloc
 
 import numpy as np
 import pytest
-from conftest import hemisphere_pairs, shared_file
+from helpers import hemisphere_pairs, shared_file
 
 from brdffit import DataError, FormatError, get_model
 from brdffit.data.measurements import Measurements

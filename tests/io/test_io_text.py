@@ -7,7 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
-from conftest import shared_file
+from helpers import shared_file
 
 from brdffit.data.measurements import Measurements
 from brdffit.errors import DataError, FormatError

@@ -24,7 +24,7 @@ import brdffit
 from brdffit.cli.main import main
 from brdffit.cli.text import _pm
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 WARD = ROOT / "data_synthetic" / "ward.csv"
 BLINN = ROOT / "data_synthetic" / "blinn.csv"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import shared_file
+from helpers import shared_file
 from scipy_baseline import projected_baseline_fit
 
 import brdffit

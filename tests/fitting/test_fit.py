@@ -6,50 +6,13 @@ import math
 
 import numpy as np
 import pytest
-from conftest import random_params
+from helpers import make_data, mirror_biased_pairs, random_params
 
 import brdffit
 from brdffit import FitError, Measurements, ParameterError, fit, get_model
-from brdffit.data.geometry import directions_from_angles
 from brdffit.fitting.losses import LOSSES
 from brdffit.fitting.problem import Problem
 from brdffit.models import REGISTRY
-
-
-def gonio_pairs(n: int, seed: int = 0, max_theta: float = 80.0):
-    rng = np.random.default_rng(seed)
-    wi = directions_from_angles(rng.uniform(0, max_theta, n), rng.uniform(0, 360, n))
-    wo = directions_from_angles(rng.uniform(0, max_theta, n), rng.uniform(0, 360, n))
-    return wi, wo
-
-
-def mirror_biased_pairs(n: int, seed: int = 0):
-    """Half random, half near the mirror direction (where glossy lobes live)."""
-    rng = np.random.default_rng(seed)
-    wi, wo = gonio_pairs(n, seed)
-    k = n // 2
-    ti = np.degrees(np.arccos(wi[:k, 2]))
-    pi_ = np.degrees(np.arctan2(wi[:k, 1], wi[:k, 0]))
-    wo[:k] = directions_from_angles(
-        np.clip(ti + rng.normal(0, 6, k), 0, 85), pi_ + 180 + rng.normal(0, 6, k)
-    )
-    return wi, wo
-
-
-def make_data(model, params, n=1500, noise=0.01, seed=0, channels=None):
-    model = get_model(model)
-    wi, wo = mirror_biased_pairs(n, seed)
-    y = np.asarray(model.evaluate(wi, wo, params))
-    rng = np.random.default_rng(seed + 1)
-    y = y * (1 + noise * rng.standard_normal(y.shape))
-    per_channel = [p.name for p in model.params if p.per_channel]
-    if channels is None and per_channel:  # wave optics: channels named by wavelength
-        nm = np.broadcast_to(
-            np.asarray(params[per_channel[0]], dtype=float), (y.reshape(len(y), -1).shape[1],)
-        )
-        channels = [f"{w:.6g}nm" for w in nm]
-    return Measurements(wi, wo, y, channels=channels)
-
 
 RGB = dict(channels=["r", "g", "b"])
 

@@ -13,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import hemisphere_pairs
+from helpers import hemisphere_pairs
 
 import brdffit
 from brdffit.models import REGISTRY
 
-HERE = Path(__file__).resolve().parents[1] / "data_synthetic"
+HERE = Path(__file__).resolve().parents[2] / "data_synthetic"
 TRUTH = json.loads((HERE / "truth.json").read_text())["files"]
 
 #: Parameters that the data cannot pin down one by one, with the reason and the

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 import test_model_invariants as invariants
-from conftest import hemisphere_pairs
+from helpers import hemisphere_pairs
 from scipy.optimize import least_squares
 
 from brdffit.data.geometry import MIN_COSINE, Geometry, directions_from_angles

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import hemisphere_pairs
+from helpers import hemisphere_pairs
 
 from brdffit import ParameterError, get_model
 from brdffit.models import REGISTRY

@@ -17,7 +17,7 @@ import struct
 
 import numpy as np
 import pytest
-from conftest import shared_file
+from helpers import shared_file
 
 import brdffit
 from brdffit import FormatError

@@ -23,7 +23,7 @@ from job_polling import wait_for
 
 import brdffit
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 WARD = ROOT / "data_synthetic" / "ward.csv"
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="uses POSIX signals")

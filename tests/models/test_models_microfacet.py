@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import hemisphere_pairs, random_params
+from helpers import hemisphere_pairs, random_params
 
 from brdffit.data.geometry import MIN_COSINE, Geometry, directions_from_angles
 from brdffit.models import REGISTRY, microfacet, renderers

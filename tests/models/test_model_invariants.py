@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import hemisphere_pairs, random_params
+from helpers import hemisphere_pairs, random_params, stable_seed
 
 from brdffit import DataError, ModelError, ParameterError, get_model, list_models
 from brdffit.data.geometry import Geometry, directions_from_angles
@@ -17,7 +17,7 @@ MODELS = sorted(REGISTRY)
 
 
 def param_sets(model, count: int = 6):
-    rng = np.random.default_rng(abs(hash(model.name)) % 2**32)
+    rng = np.random.default_rng(stable_seed(model.name))
     yield model.defaults()
     yield random_params(model, rng, "lower")
     yield random_params(model, rng, "upper")

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import hemisphere_pairs
+from helpers import hemisphere_pairs
 from scipy import integrate
 
 from brdffit.models import shared

@@ -26,7 +26,7 @@ from service.jobs import FitPool
 from service.schemas import EXAMPLE_DATA
 from service.store import SCHEMA, JobStore, data_to_bytes
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 WARD_CSV = ROOT / "data_synthetic" / "ward.csv"
 FIT_LIMIT = 800
 BODY_LIMIT = 400_000
