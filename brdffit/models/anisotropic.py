@@ -17,8 +17,8 @@ import numpy as np
 
 from ..data.geometry import MIN_COSINE, Geometry
 from ..errors import ParameterError
-from .base import Classification, Design, Model, Param, diffuse_plus_lobe
-from .empirical import exponent
+from .base import Classification, Design, Model, diffuse_plus_lobe
+from .params import exponent, radius, roughness, unit_interval
 
 __all__ = ["MODELS", "ashikhmin_shirley_coefficients", "ashikhmin_shirley_params"]
 
@@ -91,17 +91,13 @@ def ward_anisotropic_lobe(geometry: Geometry, alpha_x: float, alpha_y: float) ->
     return lobe
 
 
-def _roughness(name: str, default: float, doc: str) -> Param:
-    return Param(name, 1e-3, 1.0, default, log_scale=True, unit="1", doc=doc)
-
-
 WARD_ANISOTROPIC = _normalised(
     diffuse_plus_lobe(
         "ward_anisotropic",
         ward_anisotropic_lobe,
         (
-            _roughness("alpha_x", 0.1, "rms slope along T"),
-            _roughness("alpha_y", 0.3, "rms slope along B"),
+            roughness("alpha_x", 0.1, "rms slope along T"),
+            roughness("alpha_y", 0.3, "rms slope along B"),
         ),
         PHYSICAL_ANISO,
         "G. J. Ward, Measuring and modeling anisotropic reflection, SIGGRAPH 1992, "
@@ -188,10 +184,6 @@ def _as_design(geometry: Geometry, shape: Mapping[str, float]) -> Design:
     return Design(columns=(diffuse, s * one_minus_w), offset=s * w)
 
 
-def _unit(name: str, default: float, doc: str, linear: bool = False) -> Param:
-    return Param(name, 0.0, 1.0, default, linear=linear, unit="1", doc=doc)
-
-
 def _value(x) -> np.ndarray | float:
     a = np.asarray(x, dtype=float)
     return float(a) if a.ndim == 0 else a
@@ -237,8 +229,8 @@ def ashikhmin_shirley_params(coefs: Mapping) -> dict:
 ASHIKHMIN_SHIRLEY = Model(
     name="ashikhmin_shirley",
     params=(
-        _unit("rd", 0.5, "diffuse reflectance of the substrate", linear=True),
-        _unit("rs", 0.05, "specular reflectance at normal incidence (F0)", linear=True),
+        unit_interval("rd", 0.5, "diffuse reflectance of the substrate", linear=True),
+        unit_interval("rs", 0.05, "specular reflectance at normal incidence (F0)", linear=True),
         exponent("nu", 1e5, 100.0, "Phong exponent along T"),
         exponent("nv", 1e5, 10.0, "Phong exponent along B"),
     ),
@@ -338,16 +330,12 @@ def ohara_lobe(geometry: Geometry, a: float, b: float, n: float) -> np.ndarray:
     return np.exp(lobe, out=lobe)
 
 
-def _radius(name: str, default: float, doc: str) -> Param:
-    return Param(name, 0.01, 100.0, default, log_scale=True, unit="1", doc=doc)
-
-
 OHARA = diffuse_plus_lobe(
     "ohara",
     ohara_lobe,
     (
-        _radius("a", 1.0, "ellipsoid radius along T (c = 1)"),
-        _radius("b", 0.5, "ellipsoid radius along B (c = 1)"),
+        radius("a", 1.0, "ellipsoid radius along T (c = 1)"),
+        radius("b", 0.5, "ellipsoid radius along B (c = 1)"),
         exponent(doc="exponent of the elliptical highlight"),
     ),
     EMPIRICAL_ANISO,
@@ -419,7 +407,7 @@ FOURNIER = diffuse_plus_lobe(
     fournier_lobe,
     (
         exponent(doc="Blinn exponent of each lobe"),
-        _unit("t", 0.3, "tangent of the tilt of the outer normals towards T"),
+        unit_interval("t", 0.3, "tangent of the tilt of the outer normals towards T"),
     ),
     EMPIRICAL_ANISO,
     "A. Fournier, Normal distribution functions and multiple surfaces, Graphics "

@@ -19,19 +19,13 @@ import numpy as np
 
 from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param, diffuse_plus_lobe
+from .params import KD, exponent
 
 __all__ = ["MODELS", "blake_bounds", "exponent"]
 
 EMPIRICAL_COSINE = Classification("empirical", "isotropic", "cosine", "light")
 EMPIRICAL_ANGLE = Classification("empirical", "isotropic", "angle", "light")
 PHYSICAL_COSINE_LIGHT = Classification("physical", "isotropic", "cosine", "light")
-
-KD = Param("kd", 0.0, 1.0, 0.5, linear=True, unit="1", doc="diffuse albedo")
-
-
-def exponent(name: str = "n", upper: float = 1e4, default: float = 50.0, doc: str = "") -> Param:
-    """A specular exponent in [1, upper], searched in log space."""
-    return Param(name, 1.0, upper, default, log_scale=True, unit="1", doc=doc or "exponent")
 
 
 def _power_from_log(log_base: np.ndarray, n: float) -> np.ndarray:

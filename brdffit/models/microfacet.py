@@ -17,17 +17,14 @@ import math
 import numpy as np
 
 from ..data.geometry import Geometry
-from .base import INV_PI, Classification, Design, Model, Param
+from .base import INV_PI, Classification, Design, Model
+from .params import diffuse_params, eta_param, f0_param, roughness
 from .shared import fresnel_dielectric, schlick_weight, vcavity_g
 
 __all__ = [
     "MODELS",
     "cook_torrance_lobe",
-    "diffuse_params",
-    "eta_param",
-    "f0_param",
     "inv_4_cos",
-    "roughness",
     "schlick_fresnel",
     "torrance_sparrow_lobe",
     "ward_lobe",
@@ -36,33 +33,6 @@ __all__ = [
 PHYSICAL_COSINE = Classification("physical", "isotropic", "cosine", "material")
 PHYSICAL_ANGLE = Classification("physical", "isotropic", "angle", "material")
 WARD_CLASS = Classification("physical", "isotropic", "cosine", "light")
-
-#: Upper bound of ks for a normalised lobe (the lobe integrates to about its
-#: Fresnel factor, so ks is an albedo scale near 1; 10 leaves room for data in
-#: arbitrary units).
-KS_NORMALISED = 10.0
-
-
-# ---------------------------------------------------------------- parameters
-def diffuse_params(ks_upper: float = KS_NORMALISED, ks_unit: str = "1") -> tuple:
-    """``kd`` (diffuse albedo) and ``ks`` (specular scale), the linear parameters."""
-    return (
-        Param("kd", 0.0, 1.0, 0.5, linear=True, unit="1", doc="diffuse albedo"),
-        Param("ks", 0.0, ks_upper, 1.0, linear=True, unit=ks_unit, doc="specular scale"),
-    )
-
-
-def roughness(name: str, default: float = 0.1, doc: str = "") -> Param:
-    """A roughness in [0.001, 1], searched in log space."""
-    return Param(name, 1e-3, 1.0, default, log_scale=True, unit="1", doc=doc or "roughness")
-
-
-def eta_param() -> Param:
-    return Param("eta", 1.0, 3.0, 1.5, unit="1", doc="real refractive index (exact Fresnel)")
-
-
-def f0_param() -> Param:
-    return Param("f0", 0.0, 1.0, 0.04, unit="1", doc="reflectance at normal incidence (Schlick)")
 
 
 # ------------------------------------------------- cached parameter-free terms

@@ -22,7 +22,8 @@ import numpy as np
 
 from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model
-from .microfacet import diffuse_params, f0_param, inv_4_cos, roughness, schlick_fresnel
+from .microfacet import inv_4_cos, schlick_fresnel
+from .params import diffuse_params, f0_param, roughness
 from .shared import (
     beckmann_d,
     beckmann_d_anisotropic,
