@@ -1,7 +1,10 @@
-"""Reading and writing measured reflectance: ``read(path) -> Measurements``, ``write``.
+"""Reading and writing measured reflectance: ``read(source) -> Measurements``, ``write``.
 
-The format is named by ``format=``, or inferred from the file's extension, or,
-when the extension says nothing, from its first bytes: an MBSDF file starts
+A source is a path, bytes, or a binary file object; a target a path or a
+binary file object (:mod:`brdffit.io.source`). Errors name the file: its path,
+the ``name`` of a file object, else ``<bytes>``. The format is named by
+``format=``, or inferred from the extension of that name, or, when there is
+none or it says nothing, from the first bytes: an MBSDF file starts
 with ``NVIDIA ARC MBSDF``, a MERL ``.binary`` file with the little-endian int32
 90, 90, 180, an NPZ archive is a zip (``PK``), an RGL ``.bsdf`` file (Mitsuba
 ``tensor_file``) with ``tensor_file\\0``; text is recognised by its first
@@ -24,11 +27,13 @@ from typing import NamedTuple
 
 from ..data.measurements import Measurements
 from ..errors import DataError, FormatError
-from .astm import read_astm, read_pbrt, write_astm
+from .astm import read_astm, write_astm
 from .csv_format import read_csv, write_csv
 from .npz_format import read_npz, write_npz
+from .pbrt import read_pbrt
+from .source import NAMELESS, Source, as_source, file_name
 
-__all__ = ["FORMATS", "Format", "detect_format", "read", "write"]
+__all__ = ["FORMATS", "NAMELESS", "Format", "Source", "detect_format", "read", "write"]
 
 
 class Format(NamedTuple):
@@ -40,28 +45,28 @@ class Format(NamedTuple):
     description: str
 
 
-def _read_merl(path, subsample=None) -> Measurements:
+def _read_merl(source, subsample=None) -> Measurements:
     from .merl import read_merl
 
-    return read_merl(path, subsample=subsample)
+    return read_merl(source, subsample=subsample)
 
 
-def _write_merl(path, data) -> None:
+def _write_merl(target, data) -> None:
     from .merl import write_merl
 
-    write_merl(path, data)
+    write_merl(target, data)
 
 
-def _read_mbsdf(path) -> Measurements:
+def _read_mbsdf(source) -> Measurements:
     from .mbsdf import read_mbsdf
 
-    return read_mbsdf(path)
+    return read_mbsdf(source)
 
 
-def _read_rgl(path) -> Measurements:
+def _read_rgl(source) -> Measurements:
     from .rgl import read_rgl
 
-    return read_rgl(path)
+    return read_rgl(source)
 
 
 FORMATS: dict[str, Format] = {
@@ -89,8 +94,11 @@ def _named(format: str) -> str:
     return name
 
 
-def _by_extension(path) -> str | None:
-    extension = os.path.splitext(str(path))[1].lower()
+def _by_extension(filename) -> str | None:
+    """The format whose extension ``filename`` has (None for no name or no match)."""
+    if filename is None:
+        return None
+    extension = os.path.splitext(str(filename))[1].lower()
     for name, f in FORMATS.items():
         if extension in f.extensions:
             return name
@@ -113,13 +121,8 @@ def _sniff_text(head: bytes) -> str | None:
     return None
 
 
-def detect_format(path) -> str:
-    """The format of an existing file: its extension, or else its first bytes."""
-    name = _by_extension(path)
-    if name is not None:
-        return name
-    with open(path, "rb") as f:
-        head = f.read(4096)
+def _sniff(head: bytes) -> str | None:
+    """The format that the first bytes of a file announce, if any."""
     if head.startswith(b"NVIDIA ARC MBSDF"):
         return "mbsdf"
     if head.startswith(_MERL_MAGIC):
@@ -128,11 +131,18 @@ def detect_format(path) -> str:
         return "npz"
     if head.startswith(b"tensor_file\x00"):
         return "rgl"
-    name = _sniff_text(head)
+    return _sniff_text(head)
+
+
+def detect_format(source) -> str:
+    """The format of a source (path, bytes, binary file object): the extension of its
+    name, or else its first bytes. FormatError (field ``format``) when neither tells."""
+    source = as_source(source)
+    name = _by_extension(source.filename) or _sniff(source.head())
     if name is None:
+        how = "its extension or its first bytes" if source.filename else "its first bytes"
         raise FormatError(
-            f"cannot tell the format of {path} from its extension or its first bytes; "
-            f"pass format= one of {_known()}",
+            f"cannot tell the format of {source.name} from {how}; pass format= one of {_known()}",
             "format",
         )
     return name
@@ -152,25 +162,36 @@ def _call(function: Callable, role: str, name: str, *args, **options):
     return function(*args, **options)
 
 
-def read(path, format: str | None = None, **options) -> Measurements:
-    """Read measured reflectance from ``path``.
+def read(source, format: str | None = None, **options) -> Measurements:
+    """Read measured reflectance from a path, bytes or a binary file object.
 
-    ``format`` is one of :data:`FORMATS` (inferred when None); ``options`` go
-    to its reader (``subsample`` for MERL, ``angle_unit`` for ASTM).
+    Parameters
+    ----------
+    source : str, os.PathLike, bytes or binary file object
+        A file object is read from its position to its end; its ``name``, when it
+        has one, names it in errors and gives the extension the format is inferred
+        from (name an ``io.BytesIO`` with ``buffer.name = "upload.csv"``).
+    format : str, optional
+        One of :data:`FORMATS`; inferred when None (:func:`detect_format`).
+    **options
+        Go to the format's reader: ``subsample`` for MERL, ``angle_unit`` for ASTM.
     """
-    name = _named(format) if format is not None else detect_format(path)
-    return _call(FORMATS[name].read, "reader", name, path, **options)
+    source = as_source(source)
+    name = _named(format) if format is not None else detect_format(source)
+    return _call(FORMATS[name].read, "reader", name, source, **options)
 
 
-def write(path, data: Measurements, format: str | None = None, **options) -> None:
-    """Write ``data`` to ``path`` in ``format`` (inferred from the extension when None)."""
+def write(target, data: Measurements, format: str | None = None, **options) -> None:
+    """Write ``data`` to a path or a binary file object in ``format`` (inferred from
+    the extension of the path or of the file object's ``name`` when None)."""
     if not isinstance(data, Measurements):
         raise DataError(f"data must be Measurements, not {type(data).__name__}", "data")
-    name = _named(format) if format is not None else _by_extension(path)
+    filename = file_name(target)
+    name = _named(format) if format is not None else _by_extension(filename)
     if name is None:
         raise FormatError(
-            f"cannot tell which format to write {path} in from its extension; "
-            f"pass format= one of {_known()}",
+            f"cannot tell which format to write {filename or 'a file object without a name'} "
+            f"in from its extension; pass format= one of {_known()}",
             "format",
         )
     writer = FORMATS[name].write
@@ -180,4 +201,4 @@ def write(path, data: Measurements, format: str | None = None, **options) -> Non
             f"the {name} format can be read but not written; writable formats: {writable}",
             "format",
         )
-    _call(writer, "writer", name, path, data, **options)
+    _call(writer, "writer", name, target, data, **options)

@@ -1,4 +1,4 @@
-"""ASTM E1392 text files (read and write) and pbrt-v2 ``.brdf`` files (read).
+"""ASTM E1392 text files (read and write).
 
 ASTM E1392, as in the Cornell gonioreflectometer files: header lines of
 ``KEY value`` (``SAMPLE_NAME``, ``NUM_POINTS``, ``VARS theta_i,phi_i,theta_s,phi_s,
@@ -7,13 +7,6 @@ angles in radians. ``theta_s, phi_s`` (the scattered direction) are brdffit's
 ``theta_o, phi_o``; the other VARS are the channels. brdffit writes the same
 layout, with two extensions that other readers ignore as unknown keys or
 columns: a ``UNITS`` key, and ``sigma_<channel>`` columns when sigma is known.
-
-pbrt-v2 (``src/materials/measured.cpp``, "Irregularly Sampled Isotropic BRDF"):
-a stream of numbers where ``#`` starts a comment to the end of the line; the
-first number is the count W of wavelengths, then W wavelengths in nm, then
-records of 4 + W numbers: ``theta_i, phi_i, theta_o, phi_o`` (radians) and W
-BRDF values. pbrt builds directions as ``(sin t cos p, sin t sin p, cos t)``,
-the convention of MODELS.md. Records need not follow line breaks.
 """
 
 from __future__ import annotations
@@ -24,9 +17,10 @@ import numpy as np
 
 from ..data.measurements import Measurements
 from ..errors import FormatError
-from .csv_format import build, from_table, read_text
+from .source import as_source, put_bytes
+from .table import from_table
 
-__all__ = ["format_astm", "parse_astm", "parse_pbrt", "read_astm", "read_pbrt", "write_astm"]
+__all__ = ["format_astm", "parse_astm", "read_astm", "write_astm"]
 
 #: ASTM names of the angle columns, mapped to brdffit's.
 _ASTM_ANGLES = {"theta_s": "theta_o", "phi_s": "phi_o"}
@@ -92,9 +86,11 @@ def _check_count(header: dict, key_lines: dict, count: int, where: str) -> None:
         )
 
 
-def read_astm(path, angle_unit: str = "radians") -> Measurements:
-    """Read an ASTM E1392 file (angles in radians unless ``angle_unit='degrees'``)."""
-    return parse_astm(read_text(path), str(path), angle_unit)
+def read_astm(source, angle_unit: str = "radians") -> Measurements:
+    """Read ASTM E1392 text from a path, bytes or a binary file object (angles in
+    radians unless ``angle_unit='degrees'``)."""
+    source = as_source(source)
+    return parse_astm(source.text(), source.name, angle_unit)
 
 
 def format_astm(data: Measurements) -> str:
@@ -117,75 +113,6 @@ def format_astm(data: Measurements) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_astm(path, data: Measurements) -> None:
-    """Write ``data`` as ASTM E1392 text."""
-    with open(path, "w", encoding="utf-8", newline="\n") as f:
-        f.write(format_astm(data))
-
-
-def _tokens(text: str) -> tuple:
-    """Whitespace-separated tokens outside ``#`` comments, with their line numbers."""
-    tokens, lines = [], []
-    for number, raw in enumerate(text.splitlines(), start=1):
-        words = raw.split("#", 1)[0].split()
-        tokens.extend(words)
-        lines.extend([number] * len(words))
-    return tokens, np.array(lines, dtype=int)
-
-
-def _numbers(tokens: list, lines: np.ndarray, where: str) -> np.ndarray:
-    try:
-        numbers = np.array(tokens, dtype=float)
-    except ValueError:
-        for k, token in enumerate(tokens):
-            try:
-                float(token)
-            except ValueError:
-                raise FormatError(
-                    f"{where}, line {lines[k]}: {token!r} is not a number", "data"
-                ) from None
-    bad = ~np.isfinite(numbers)
-    if bad.any():
-        k = int(np.flatnonzero(bad)[0])
-        raise FormatError(
-            f"{where}, line {lines[k]}: {tokens[k]!r} is not a finite number; "
-            f"{int(bad.sum())} numbers are NaN or inf",
-            "data",
-        )
-    return numbers
-
-
-def parse_pbrt(text: str, where: str = "<pbrt text>") -> Measurements:
-    """Measurements from the text of a pbrt-v2 ``.brdf`` file; ``where`` names it in errors."""
-    tokens, lines = _tokens(text)
-    if not tokens:
-        raise FormatError(f"{where} holds no numbers; a pbrt .brdf file starts with W", "data")
-    numbers = _numbers(tokens, lines, where)
-    w = numbers[0]
-    if w != int(w) or not 1 <= w <= len(numbers) - 1:
-        raise FormatError(
-            f"{where}, line {lines[0]}: the first number, the count of wavelengths, is "
-            f"{tokens[0]!r}; it must be a whole number of at least 1",
-            "data",
-        )
-    w = int(w)
-    wavelengths, rest = numbers[1 : 1 + w], numbers[1 + w :]
-    size = 4 + w
-    if rest.size == 0 or rest.size % size:
-        raise FormatError(
-            f"{where}, line {lines[-1]}: after the {w} wavelengths come {rest.size} numbers, "
-            f"not a whole number of records of 4 + {w} = {size} (a truncated file?)",
-            "data",
-        )
-    records = rest.reshape(-1, size)
-    record_lines = lines[1 + w :: size]
-    channels = [f"{x:g}nm" for x in wavelengths]
-    angles = tuple(records[:, j] for j in range(4))
-    source = os.path.basename(str(where))
-    return build(where, angles, records[:, 4:], channels, None, record_lines, False, source,
-                 "1/sr")  # fmt: skip
-
-
-def read_pbrt(path) -> Measurements:
-    """Read a pbrt-v2 irregularly sampled isotropic ``.brdf`` file."""
-    return parse_pbrt(read_text(path), str(path))
+def write_astm(target, data: Measurements) -> None:
+    """Write ``data`` as ASTM E1392 text to a path or a binary file object."""
+    put_bytes(target, format_astm(data).encode("utf-8"))

@@ -37,12 +37,12 @@ Small negative values (measurement noise) are kept as they are.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import FormatError
+from .source import as_source
 
 __all__ = ["MAGIC", "MbsdfSamples", "mbsdf_directions", "read_mbsdf", "read_mbsdf_arrays"]
 
@@ -76,7 +76,7 @@ def mbsdf_directions(theta_resolution: int, phi_resolution: int):
     return wi, wo
 
 
-def _next_line(raw: bytes, pos: int, path: Path) -> tuple[bytes, int]:
+def _next_line(raw: bytes, pos: int, path: str) -> tuple[bytes, int]:
     """The line starting at ``pos`` (with its newline) and the position after it."""
     end = raw.find(b"\n", pos)
     if end < 0:
@@ -87,7 +87,7 @@ def _next_line(raw: bytes, pos: int, path: Path) -> tuple[bytes, int]:
     return raw[pos : end + 1], end + 1
 
 
-def _metadata_entry(line: bytes, pos: int, path: Path) -> tuple[str, str]:
+def _metadata_entry(line: bytes, pos: int, path: str) -> tuple[str, str]:
     try:
         text = line.decode("utf-8").rstrip("\n")
     except UnicodeDecodeError:
@@ -101,7 +101,7 @@ def _metadata_entry(line: bytes, pos: int, path: Path) -> tuple[str, str]:
     return key, value
 
 
-def _block_header(raw: bytes, pos: int, path: Path, part: str) -> tuple[int, int, int, int]:
+def _block_header(raw: bytes, pos: int, path: str, part: str) -> tuple[int, int, int, int]:
     """Check a data block at ``pos``; return (type, theta res, phi res, end of block)."""
     if len(raw) < pos + 12:
         raise FormatError(
@@ -128,7 +128,7 @@ def _block_header(raw: bytes, pos: int, path: Path, part: str) -> tuple[int, int
     return kind, n_theta, n_phi, end
 
 
-def _find_reflection(raw: bytes, path: Path) -> tuple[int, dict]:
+def _find_reflection(raw: bytes, path: str) -> tuple[int, dict]:
     """Position of the reflection block after its marker, and the metadata before it."""
     if not raw.startswith(MAGIC):
         found = raw[: len(MAGIC)]
@@ -151,7 +151,7 @@ def _find_reflection(raw: bytes, path: Path) -> tuple[int, dict]:
         pos = after
 
 
-def _check_tail(raw: bytes, pos: int, path: Path) -> bool:
+def _check_tail(raw: bytes, pos: int, path: str) -> bool:
     """Check what follows the reflection block; True when a transmission part does."""
     if pos == len(raw):
         return False
@@ -166,10 +166,11 @@ def _check_tail(raw: bytes, pos: int, path: Path) -> bool:
     )
 
 
-def read_mbsdf_arrays(path) -> MbsdfSamples:
-    """Read the reflection part of an MBSDF file into arrays (see the module doc)."""
-    path = Path(path)
-    raw = path.read_bytes()
+def read_mbsdf_arrays(source) -> MbsdfSamples:
+    """Read the reflection part of an MBSDF file (a path, bytes or a binary file object)
+    into arrays (see the module doc)."""
+    source = as_source(source)
+    path, raw = source.name, source.read()
     pos, metadata = _find_reflection(raw, path)
     kind, n_theta, n_phi, end = _block_header(raw, pos, path, "reflection")
     has_transmission = _check_tail(raw, end, path)
@@ -195,12 +196,15 @@ def read_mbsdf_arrays(path) -> MbsdfSamples:
     )
 
 
-def read_mbsdf(path):
+def read_mbsdf(source):
     """Read the reflection part of an MBSDF file as :class:`~brdffit.Measurements`.
 
     Units are not stated by the format; they are taken as 1/sr (a BRDF).
     """
     from ..data.measurements import Measurements
 
-    s = read_mbsdf_arrays(path)
-    return Measurements(s.wi, s.wo, s.values, channels=s.channels, source=str(path), units="1/sr")
+    source = as_source(source)
+    s = read_mbsdf_arrays(source)
+    return Measurements(
+        s.wi, s.wo, s.values, channels=s.channels, source=source.name, units="1/sr"
+    )

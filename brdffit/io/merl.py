@@ -49,12 +49,12 @@ when both directions of its centre are above the horizon.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import DataError, FormatError
+from .source import as_source, put_bytes
 
 __all__ = [
     "CHANNELS",
@@ -182,31 +182,29 @@ def cell_indices(wi, wo) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 # ------------------------------------------------------------------ reading
-def _read_table(path: Path) -> np.ndarray:
+def _read_table(raw: bytes, path: str) -> np.ndarray:
     """The stored doubles as a (3, 90, 90, 180) array, after checking header and size."""
-    size = path.stat().st_size
-    with open(path, "rb") as f:
-        header = f.read(HEADER_BYTES)
-        if len(header) < HEADER_BYTES:
-            raise FormatError(
-                f"{path}: the file has {len(header)} bytes; a MERL file starts with a "
-                f"{HEADER_BYTES}-byte header of three int32 dimensions at byte 0"
-            )
-        dims = np.frombuffer(header, dtype="<i4").tolist()
-        if min(dims) <= 0 or math.prod(dims) != N_CELLS:
-            raise FormatError(
-                f"{path}: the dimensions {dims} at byte 0 multiply to {math.prod(dims)}; "
-                f"a MERL table needs {RES_THETA_H} x {RES_THETA_D} x {RES_PHI_D} = {N_CELLS} "
-                "cells (a table over the full phi_d range of 360 is not this format)"
-            )
-        expected = HEADER_BYTES + DATA_BYTES
-        if size != expected:
-            what = "is truncated: it ends" if size < expected else "has extra data: it ends"
-            raise FormatError(
-                f"{path} {what} at byte {size}, but the header's 3 x {N_CELLS} doubles "
-                f"from byte {HEADER_BYTES} end at byte {expected}"
-            )
-        table = np.fromfile(f, dtype="<f8", count=3 * N_CELLS)
+    size = len(raw)
+    if size < HEADER_BYTES:
+        raise FormatError(
+            f"{path}: the file has {size} bytes; a MERL file starts with a "
+            f"{HEADER_BYTES}-byte header of three int32 dimensions at byte 0"
+        )
+    dims = np.frombuffer(raw, dtype="<i4", count=3).tolist()
+    if min(dims) <= 0 or math.prod(dims) != N_CELLS:
+        raise FormatError(
+            f"{path}: the dimensions {dims} at byte 0 multiply to {math.prod(dims)}; "
+            f"a MERL table needs {RES_THETA_H} x {RES_THETA_D} x {RES_PHI_D} = {N_CELLS} "
+            "cells (a table over the full phi_d range of 360 is not this format)"
+        )
+    expected = HEADER_BYTES + DATA_BYTES
+    if size != expected:
+        what = "is truncated: it ends" if size < expected else "has extra data: it ends"
+        raise FormatError(
+            f"{path} {what} at byte {size}, but the header's 3 x {N_CELLS} doubles "
+            f"from byte {HEADER_BYTES} end at byte {expected}"
+        )
+    table = np.frombuffer(raw, dtype="<f8", count=3 * N_CELLS, offset=HEADER_BYTES)
     if not np.isfinite(table).all():
         first = int(np.flatnonzero(~np.isfinite(table))[0])
         raise FormatError(
@@ -216,12 +214,12 @@ def _read_table(path: Path) -> np.ndarray:
     return table.reshape(3, RES_THETA_H, RES_THETA_D, RES_PHI_D)
 
 
-def read_merl_arrays(path, subsample: int | None = None) -> MerlSamples:
+def read_merl_arrays(source, subsample: int | None = None) -> MerlSamples:
     """Read a MERL ``.binary`` file into arrays of its valid cells.
 
     Parameters
     ----------
-    path : str or Path
+    source : str, Path, bytes or binary file object
     subsample : int, optional
         Keep every ``subsample``-th cell along each of the three axes, starting
         at index 0 (so the cells nearest the specular peak are kept): about
@@ -235,8 +233,8 @@ def read_merl_arrays(path, subsample: int | None = None) -> MerlSamples:
     (measured with ``tracemalloc`` and ``ru_maxrss``).
     """
     step = _check_step(subsample, "subsample")
-    path = Path(path)
-    table = _read_table(path)[:, ::step, ::step, ::step]
+    source = as_source(source)
+    table = _read_table(source.read(), source.name)[:, ::step, ::step, ::step]
     negative = (table < 0.0).any(axis=0)
     above = _horizon_mask(step)
     keep = above & ~negative
@@ -254,7 +252,7 @@ def read_merl_arrays(path, subsample: int | None = None) -> MerlSamples:
     )
 
 
-def read_merl(path, subsample: int | None = None):
+def read_merl(source, subsample: int | None = None):
     """Read a MERL file as :class:`~brdffit.data.measurements.Measurements` (channels r, g, b).
 
     See :func:`read_merl_arrays` for ``subsample``; cells without a measurement
@@ -262,8 +260,9 @@ def read_merl(path, subsample: int | None = None):
     """
     from ..data.measurements import Measurements
 
-    s = read_merl_arrays(path, subsample)
-    return Measurements(s.wi, s.wo, s.values, channels=CHANNELS, source=str(path), units="1/sr")
+    source = as_source(source)
+    s = read_merl_arrays(source, subsample)
+    return Measurements(s.wi, s.wo, s.values, channels=CHANNELS, source=source.name, units="1/sr")
 
 
 # ------------------------------------------------------------------ writing
@@ -309,8 +308,9 @@ def merl_table(wi, wo, values) -> np.ndarray:
     return table.reshape(3, RES_THETA_H, RES_THETA_D, RES_PHI_D)
 
 
-def write_merl_table(path, table: np.ndarray) -> None:
-    """Write a stored (3, 90, 90, 180) table with its header, little-endian."""
+def write_merl_table(target, table: np.ndarray) -> None:
+    """Write a stored (3, 90, 90, 180) table with its header, little-endian, to a path
+    or a binary file object."""
     table = np.asarray(table, dtype="<f8")
     if table.shape != (3, RES_THETA_H, RES_THETA_D, RES_PHI_D):
         raise DataError(
@@ -318,12 +318,11 @@ def write_merl_table(path, table: np.ndarray) -> None:
             f"not {table.shape}",
             "table",
         )
-    with open(path, "wb") as f:
-        np.array([RES_THETA_H, RES_THETA_D, RES_PHI_D], dtype="<i4").tofile(f)
-        table.tofile(f)
+    header = np.array([RES_THETA_H, RES_THETA_D, RES_PHI_D], dtype="<i4")
+    put_bytes(target, header.tobytes() + table.tobytes())
 
 
-def write_merl(path, data) -> None:
+def write_merl(target, data) -> None:
     """Write 3-channel measurements on MERL cells as a full MERL file.
 
     Samples are binned with :func:`merl_table` (the mean of a cell's samples);
@@ -339,4 +338,4 @@ def write_merl(path, data) -> None:
             "the MERL format stores exactly 3 (r, g, b)",
             "channels",
         )
-    write_merl_table(path, merl_table(data.wi, data.wo, values))
+    write_merl_table(target, merl_table(data.wi, data.wo, values))

@@ -9,12 +9,14 @@ gives back the same doubles; nothing is pickled (``allow_pickle=False``).
 
 from __future__ import annotations
 
+import io
 import zipfile
 
 import numpy as np
 
 from ..data.measurements import ANGLE_COLUMNS, Measurements
 from ..errors import DataError, FormatError
+from .source import as_source, put_bytes
 
 __all__ = ["read_npz", "write_npz"]
 
@@ -22,8 +24,8 @@ FORMAT_VERSION = 1
 _REQUIRED = ("wi", "wo", "values", "channels", "source", "units")
 
 
-def write_npz(path, data: Measurements) -> None:
-    """Write ``data`` to a compressed ``.npz`` archive."""
+def write_npz(target, data: Measurements) -> None:
+    """Write ``data`` as a compressed ``.npz`` archive to a path or a binary file object."""
     arrays = {
         "format_version": np.array(FORMAT_VERSION),
         "wi": data.wi,
@@ -39,19 +41,22 @@ def write_npz(path, data: Measurements) -> None:
     if stored is not None:
         arrays.update(zip(ANGLE_COLUMNS, stored[0]))
         arrays["angles_in_degrees"] = np.array(stored[1])
-    # np.savez appends ".npz" to a name without it; open the file ourselves to keep the name.
-    with open(path, "wb") as f:
-        np.savez_compressed(f, **arrays)
+    # np.savez appends ".npz" to a name without it, and a zip archive needs to seek:
+    # build it in memory.
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **arrays)
+    put_bytes(target, buffer.getvalue())
 
 
-def read_npz(path) -> Measurements:
-    """Read an archive written by :func:`write_npz`."""
+def read_npz(source) -> Measurements:
+    """Read an archive written by :func:`write_npz` from a path, bytes or a binary file
+    object."""
+    source = as_source(source)
+    path, raw = source.name, source.read()
     try:
-        with np.load(path, allow_pickle=False) as archive:
+        with np.load(io.BytesIO(raw), allow_pickle=False) as archive:
             contents = {key: archive[key] for key in archive.files}
     except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
-        if isinstance(exc, FileNotFoundError):
-            raise
         raise FormatError(f"{path} is not a readable .npz archive: {exc}", "path") from None
     missing = [key for key in _REQUIRED if key not in contents]
     if missing:

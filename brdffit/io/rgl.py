@@ -2,10 +2,7 @@
 
 Sources checked (public code; formulas rewritten here, nothing copied):
 
-- container: Mitsuba 3 ``src/core/tensor.cpp`` (``TensorFile``), RGL
-  ``brdf-loader`` ``powitacq_rgb.inl`` (``Tensor::Tensor``) and its Python
-  ``visualize.py`` (``read_tensor``/``write_tensor``, which give the dtype codes
-  and say little-endian);
+- container: see :mod:`brdffit.io.tensor_file`;
 - evaluation: Mitsuba 3 ``src/bsdfs/measured.cpp`` (``Measured::eval`` and
   ``sample``; the RGB branch reads the field ``rgb`` in place of ``spectra``)
   and ``powitacq_rgb.inl`` (``BRDF::eval``/``sample``), whose header
@@ -13,12 +10,6 @@ Sources checked (public code; formulas rewritten here, nothing copied):
 - warp: Mitsuba 3 ``include/mitsuba/core/distr_2d.h`` (``Marginal2D`` with
   ``Continuous = true``: ``sample_continuous``, ``invert_continuous``, ``eval``,
   ``interpolate_weights``) and its copy in ``powitacq_rgb.inl``.
-
-Container (all little-endian): the 12 bytes ``tensor_file\\0``; version bytes
-``1 0``; uint32 field count; per field uint16 name length, the name, uint16
-``ndim``, uint8 dtype code (1 uint8, 2 int8, 3 uint16, 4 int16, 5 uint32,
-6 int32, 7 uint64, 8 int64, 9 float16, 10 float32, 11 float64), uint64 offset of
-the data, ``ndim`` uint64 sizes; the data (C order) at the offsets.
 
 Model (Dupuy and Jakob 2018, "An adaptive parameterization for efficient
 material acquisition and rendering"). With ``u(theta) = sqrt(2 theta / pi)``
@@ -64,14 +55,14 @@ both loaders, which ignore it) is not used.
 from __future__ import annotations
 
 import math
-import struct
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import FormatError
 from ..notes import note
+from .source import as_source
+from .tensor_file import DTYPES, MAGIC, TensorField, read_tensor_file
 
 __all__ = [
     "DTYPES",
@@ -87,24 +78,11 @@ __all__ = [
     "warp_sample",
 ]
 
-MAGIC = b"tensor_file\x00"
-DTYPES = {1: "u1", 2: "i1", 3: "<u2", 4: "<i2", 5: "<u4", 6: "<i4", 7: "<u8", 8: "<i8"}
-DTYPES.update({9: "<f2", 10: "<f4", 11: "<f8"})
 CHANNELS = ("r", "g", "b")
 #: A direction with ``cos theta`` at or below this is taken to be at the horizon: the
 #: database stores theta_i = pi/2 as float32 (89.99999 degrees, cos 7.5e-8), where the
 #: BRDF is undefined and ``f_r = eval / cos theta_o`` reaches 1e9 at its mirror.
 HORIZON_COS = 1e-6
-
-
-class TensorField(NamedTuple):
-    """One field of a tensor file."""
-
-    name: str
-    dtype: np.dtype
-    offset: int  #: byte offset of the data in the file
-    shape: tuple
-    data: np.ndarray  #: read-only view of the bytes, with ``shape``
 
 
 class RglSamples(NamedTuple):
@@ -120,73 +98,6 @@ class RglSamples(NamedTuple):
     n_incident_below_horizon: int  #: pairs dropped because wi is not above the horizon
     n_below_horizon: int  #: pairs dropped because wo is not above the horizon
     n_merged: int  #: duplicate nodes dropped (warped onto the normal, or onto u_phi = 1 = 0)
-
-
-# ----------------------------------------------------------------- container
-def _unpack(raw: bytes, fmt: str, pos: int, what: str, path) -> tuple:
-    size = struct.calcsize(fmt)
-    if pos + size > len(raw):
-        raise FormatError(
-            f"{path} is truncated: the {what} needs {size} bytes at byte {pos}, "
-            f"but the file ends at byte {len(raw)}"
-        )
-    return struct.unpack_from(fmt, raw, pos)
-
-
-def _field_header(raw: bytes, pos: int, index: int, path) -> tuple:
-    """Parse field ``index``'s header at ``pos``; return (name, code, offset, shape, end)."""
-    (length,) = _unpack(raw, "<H", pos, f"name length of field {index}", path)
-    name_bytes = raw[pos + 2 : pos + 2 + length]
-    if len(name_bytes) < length:
-        raise FormatError(
-            f"{path} is truncated: the name of field {index} needs {length} bytes at byte "
-            f"{pos + 2}, but the file ends at byte {len(raw)}"
-        )
-    try:
-        name = name_bytes.decode("utf-8")
-    except UnicodeDecodeError:
-        raise FormatError(
-            f"{path}: the name of field {index} at byte {pos + 2} is not UTF-8"
-        ) from None
-    pos += 2 + length
-    ndim, code, offset = _unpack(raw, "<HBQ", pos, f"header of field {name!r}", path)
-    if code not in DTYPES:
-        raise FormatError(
-            f"{path}: field {name!r} has the unknown dtype code {code} at byte {pos + 2}; "
-            "the codes are 1..11 (uint8 .. float64)"
-        )
-    shape = _unpack(raw, f"<{ndim}Q", pos + 11, f"shape of field {name!r}", path)
-    return name, code, offset, shape, pos + 11 + 8 * ndim
-
-
-def read_tensor_file(path) -> dict[str, TensorField]:
-    """Read every field of a Mitsuba ``tensor_file`` (see the module doc)."""
-    path = Path(path)
-    raw = path.read_bytes()
-    if raw[:12] != MAGIC:
-        raise FormatError(
-            f"{path}: wrong magic at byte 0: found {raw[:12]!r}, expected {MAGIC!r}; "
-            "this is not a Mitsuba tensor file (RGL .bsdf)"
-        )
-    version = _unpack(raw, "<BB", 12, "version", path)
-    if version != (1, 0):
-        raise FormatError(f"{path}: version {version} at byte 12 is not 1.0, the one known")
-    (count,) = _unpack(raw, "<I", 14, "field count", path)
-    fields, pos = {}, 18
-    for index in range(count):
-        name, code, offset, shape, pos = _field_header(raw, pos, index, path)
-        dtype = np.dtype(DTYPES[code])
-        end = offset + dtype.itemsize * math.prod(shape)
-        if end > len(raw):
-            raise FormatError(
-                f"{path} is truncated: the data of field {name!r} ({dtype}, shape "
-                f"{list(shape)}) from byte {offset} needs the file to reach byte {end}, "
-                f"but it ends at byte {len(raw)}"
-            )
-        count_ = math.prod(shape)
-        data = np.frombuffer(raw, dtype=dtype, count=count_, offset=offset).reshape(shape)
-        fields[name] = TensorField(name, dtype, offset, tuple(shape), data)
-    return fields
 
 
 # ---------------------------------------------------------------------- warp
@@ -392,9 +303,11 @@ def _incident_slice(f: dict, k: int) -> tuple:
     return wi, wo, values, np.stack([sx, sy], axis=1), merged
 
 
-def read_rgl_arrays(path) -> RglSamples:
-    """Read an isotropic RGB RGL material file into arrays (see the module doc)."""
-    fields = read_tensor_file(path)
+def read_rgl_arrays(source) -> RglSamples:
+    """Read an isotropic RGB RGL material file (a path, bytes or a binary file object)
+    into arrays (see the module doc)."""
+    source = as_source(source)
+    path, fields = source.name, read_tensor_file(source)
     f = _check_layout(fields, path)
     parts, n_incident, n_merged = [], 0, 0
     n_theta, (ny, nx) = f["theta_i"].shape[0], f["rgb"].shape[3:]
@@ -427,7 +340,7 @@ def read_rgl_arrays(path) -> RglSamples:
     )
 
 
-def read_rgl(path):
+def read_rgl(source):
     """Read an isotropic RGB RGL ``.bsdf`` file as :class:`~brdffit.Measurements`.
 
     Channels r, g, b (linear sRGB, as stored), units 1/sr. A ``UserWarning``
@@ -436,7 +349,8 @@ def read_rgl(path):
     """
     from ..data.measurements import Measurements
 
-    s = read_rgl_arrays(path)
+    source = as_source(source)
+    path, s = source.name, read_rgl_arrays(source)
     dropped = s.n_incident_below_horizon + s.n_below_horizon + s.n_merged
     if dropped:
         note(
@@ -448,4 +362,4 @@ def read_rgl(path):
             f"{len(s.wi)} pairs kept",
             stacklevel=2,
         )
-    return Measurements(s.wi, s.wo, s.values, channels=CHANNELS, source=str(path), units="1/sr")
+    return Measurements(s.wi, s.wo, s.values, channels=CHANNELS, source=path, units="1/sr")
