@@ -53,10 +53,11 @@ E308_STEPS = (1.0, 5.0, 10.0, 20.0)
 
 
 def _colour():
-    # colour-science imports in about a second; load it only when colour is asked for
-    import colour
+    # colour-science (the 'colour' extra) imports in about a second; load it only when
+    # colour is asked for
+    from .._extras import require
 
-    return colour
+    return require("colour", "colour")
 
 
 def _check_wavelengths(wavelengths_nm, n_channels: int | None) -> tuple:
