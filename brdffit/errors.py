@@ -4,6 +4,10 @@ Every error is a :class:`BrdfFitError` (a ``ValueError``) whose message is a
 sentence saying what is wrong and what is needed. ``field`` names the input that
 is wrong (a parameter, a column, an option) so that the command line and the
 HTTP service can point at it without parsing the message.
+
+A part of brdffit whose optional dependencies are not installed (plots, the web
+service, colour conversion) raises :class:`MissingExtraError`, an ``ImportError``
+whose one-line message names the extra to install.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ __all__ = [
     "DataError",
     "FormatError",
     "FitError",
+    "MissingExtraError",
 ]
 
 
@@ -44,3 +49,14 @@ class FormatError(BrdfFitError):
 
 class FitError(BrdfFitError):
     """Options or data that a fit or a posterior run cannot work with."""
+
+
+class MissingExtraError(ImportError):
+    """An optional part of brdffit used without its extra installed.
+
+    ``extra`` is the extra that installs it (``pip install 'brdffit[<extra>]'``).
+    """
+
+    def __init__(self, message: str, extra: str, module: str | None = None):
+        super().__init__(message, name=module)
+        self.extra = extra

@@ -6,14 +6,8 @@ service holds no fitting logic (DESIGN.md).
 
 from __future__ import annotations
 
-import math
-import os
-import re
-import tempfile
-from collections.abc import Mapping
+import io
 from contextlib import contextmanager
-
-import numpy as np
 
 import brdffit
 from brdffit.errors import BrdfFitError, DataError
@@ -22,7 +16,6 @@ from brdffit.notes import collecting
 from .schemas import DataIn, FitOptions, PosteriorOptions
 
 __all__ = [
-    "finite",
     "fit_kwargs",
     "located",
     "measurements",
@@ -32,22 +25,9 @@ __all__ = [
 
 #: Library fields that name a part of the data, to be found under ``data.`` in a body.
 DATA_FIELDS = {"theta_i", "phi_i", "theta_o", "phi_o", "values", "channels", "sigma", "index"}
-_SAFE_SUFFIX = re.compile(r"^\.[A-Za-z0-9]{1,10}$")
-
-
-def finite(value):
-    """``value`` with every non-finite float replaced by None (JSON has no NaN)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, Mapping):
-        return {k: finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [finite(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return finite(value.tolist())
-    if isinstance(value, np.generic):
-        return finite(value.item())
-    return value
+#: Library fields that mean "the file itself": an upload's is the form field ``file``.
+FILE_FIELDS = {None, "path", "source"}
+UNNAMED_UPLOAD = "the uploaded file"
 
 
 @contextmanager
@@ -105,34 +85,25 @@ def fit_kwargs(options: FitOptions, seconds: float) -> dict:
 
 def read_upload(content: bytes, filename: str | None, format: str | None, subsample=None,
                 channels: str | None = None, limit: int | None = None):  # fmt: skip
-    """``brdffit.read`` of an uploaded file, through a temporary file that keeps its
-    extension (the library infers the format from it, or from the first bytes), and
-    the notes the reading made, naming the uploaded file."""
-    suffix = os.path.splitext(filename or "")[1]
-    suffix = suffix if _SAFE_SUFFIX.match(suffix) else ""
-    fd, path = tempfile.mkstemp(suffix=suffix)
+    """``brdffit.read`` of an uploaded file's bytes, and the notes the reading made.
+
+    The bytes are read in memory, named by the upload's file name: the library
+    infers the format from its extension (or from the first bytes), and its
+    messages and notes name the client's file. A fault of the file's content
+    that the reader puts under no narrower field is the form field ``file``'s.
+    """
+    upload = io.BytesIO(content)
+    upload.name = filename or UNNAMED_UPLOAD
+    options = {} if subsample is None else {"subsample": subsample}
     try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(content)
-        options = {} if subsample is None else {"subsample": subsample}
-        try:
-            with collecting() as notes:
-                data = brdffit.read(path, format=format, **options)
-        except BrdfFitError as exc:
-            # Name the uploaded file, not the temporary one, in the message; a fault
-            # in the file's content is the field "file"'s.
-            raise type(exc)(_named(str(exc), path, filename), exc.field or "file") from None
-    finally:
-        os.unlink(path)
+        with collecting() as notes:
+            data = brdffit.read(upload, format=format, **options)
+    except BrdfFitError as exc:
+        if exc.field in FILE_FIELDS:
+            exc.field = "file"
+        raise
     if channels:
         data = data.select_channels([c.strip() for c in channels.split(",") if c.strip()])
     if limit is not None:
         sample_limit(data.n, limit, "file")
-    return data, [_named(text, path, filename) for text in notes]
-
-
-def _named(text: str, path: str, filename: str | None) -> str:
-    """``text`` naming the uploaded file where it names the temporary one (by its path
-    or by its base name, as readers do)."""
-    shown = filename or "the uploaded file"
-    return text.replace(path, shown).replace(os.path.basename(path), shown)
+    return data, list(notes)

@@ -28,8 +28,8 @@ from multiprocessing import get_context
 
 import brdffit
 from brdffit.errors import BrdfFitError
+from brdffit.jsonable import jsonable
 
-from .convert import finite
 from .errors import ApiError
 from .store import JobStore, data_from_bytes
 
@@ -45,7 +45,8 @@ PROGRESS_EVERY = 0.5
 class Cancelled(Exception):
     """The job was deleted or resubmitted, or its server is gone: stop working on it.
 
-    Not a ValueError or RuntimeError, so that the fitting engine lets it through.
+    Not a :class:`brdffit.StopFit`, which would end the fit with a result to store:
+    this abandons the job, and the fitting engine lets it through to :func:`run_job`.
     """
 
 
@@ -66,7 +67,7 @@ class _Reporter:
         self.last = now
         report = dataclasses.asdict(progress)
         report.setdefault("stage", "posterior")
-        if not self.store.progress(self.job_id, self.attempt, finite(report)):
+        if not self.store.progress(self.job_id, self.attempt, jsonable(report)):
             raise Cancelled("the job was deleted or resubmitted")
 
 
@@ -96,7 +97,7 @@ def run_job(store_path: str, job_id: str, attempt: int, parent_pid: int | None =
         error = {"field": None, "message": f"internal error: {exc!r}", "kind": "InternalError"}
         store.finish(job_id, attempt, error=error)
         return "failed"
-    return "done" if store.finish(job_id, attempt, result=finite(result.to_dict())) else "gone"
+    return "done" if store.finish(job_id, attempt, result=jsonable(result.to_dict())) else "gone"
 
 
 def _exit_with_parent(parent_pid: int, every: float = 1.0) -> None:
@@ -202,7 +203,7 @@ class JobRunner:
 
 def fit_to_dict(data, model: str, kwargs: dict) -> dict:
     """``brdffit.fit(data, model, **kwargs).to_dict()``, JSON-ready: a synchronous fit."""
-    return finite(brdffit.fit(data, model, **kwargs).to_dict())
+    return jsonable(brdffit.fit(data, model, **kwargs).to_dict())
 
 
 class FitPool:

@@ -13,10 +13,9 @@ had before (an orphaned worker of a killed server cannot overwrite it).
 
 from __future__ import annotations
 
+import io
 import json
-import os
 import sqlite3
-import tempfile
 import time
 import uuid
 from contextlib import closing, contextmanager
@@ -61,23 +60,14 @@ def iso(seconds: float | None) -> str | None:
 
 def data_to_bytes(data: brdffit.Measurements) -> bytes:
     """Measurements as the bytes of a brdffit ``.npz`` archive (lossless, no pickle)."""
-    fd, path = tempfile.mkstemp(suffix=".npz")
-    os.close(fd)
-    try:
-        brdffit.write(path, data, format="npz")
-        return Path(path).read_bytes()
-    finally:
-        os.unlink(path)
+    buffer = io.BytesIO()
+    brdffit.write(buffer, data, format="npz")
+    return buffer.getvalue()
 
 
 def data_from_bytes(blob: bytes) -> brdffit.Measurements:
-    fd, path = tempfile.mkstemp(suffix=".npz")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(blob)
-        return brdffit.read(path, format="npz")
-    finally:
-        os.unlink(path)
+    """The Measurements of :func:`data_to_bytes`."""
+    return brdffit.read(blob, format="npz")
 
 
 class JobStore:

@@ -1,277 +1,40 @@
 """The ``brdffit`` command: models, fit, compare, synth, evaluate, serve.
 
+This module holds the parser and :func:`main`; :mod:`.commands` does each
+command's work through the library's public calls and :mod:`.text` prints.
 Each command reads its arguments, makes one library call and prints the
 result: a table for a person, or with ``--json`` one JSON object, the
-``to_dict()`` of the result. Errors are one line on stderr and exit code 2.
-Long work (the global search, the sampling) shows a progress line on stderr
-when stderr is a terminal, and never under ``--json``.
+``to_dict()`` of the result. Errors (bad input, a missing extra) are one line
+on stderr and exit code 2. Long work (the global search, the sampling) shows a
+progress line on stderr when stderr is a terminal, and never under ``--json``.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import warnings
 
-import numpy as np
-
 from .. import __version__
-from ..errors import BrdfFitError
-from ..models.base import HIGHLIGHTS, OPERANDS, ORIGINS, SYMMETRIES
-from .text import fit_text, plain, print_json, progress_for, shout, table
+from ..errors import BrdfFitError, MissingExtraError
+from ..fitting.losses import LOSSES
+from .commands import (
+    AXES,
+    cmd_compare,
+    cmd_evaluate,
+    cmd_fit,
+    cmd_models,
+    cmd_serve,
+    cmd_synth,
+)
 
-__all__ = ["main", "build_parser"]
-
-AXES = {"origin": ORIGINS, "symmetry": SYMMETRIES, "operand": OPERANDS, "highlight": HIGHLIGHTS}
-
-
-class CliError(BrdfFitError):
-    """A command-line argument the command cannot use."""
+__all__ = ["build_parser", "main"]
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
         # One line, not argparse's usage block: the command, what is wrong, where to look.
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
-
-
-# ------------------------------------------------------------------ parsing
-def _number_or_list(text: str, field: str):
-    try:
-        values = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise CliError(
-            f"{field}={text!r}: the value must be a number or a list a,b,c", field
-        ) from None
-    if not values:
-        raise CliError(f"{field} has no value; write {field}=0.5 or {field}=0.5,0.4,0.3", field)
-    return values[0] if len(values) == 1 else values
-
-
-def _assignments(items, option: str) -> dict:
-    """``["kd=0.5,0.4,0.3", "n=80"]`` -> ``{"kd": [0.5, 0.4, 0.3], "n": 80.0}``."""
-    out = {}
-    for item in items or ():
-        name, sep, text = item.partition("=")
-        if not sep or not name.strip():
-            raise CliError(
-                f"{option} {item!r} must be name=value (e.g. n=80 or kd=0.5,0.4)",
-                option.lstrip("-"),
-            )
-        out[name.strip()] = _number_or_list(text, name.strip())
-    return out
-
-
-def _angles(items) -> tuple:
-    rows = []
-    for item in items:
-        parts = item.split(",")
-        try:
-            rows.append([float(p) for p in parts])
-        except ValueError:
-            rows.append([])
-        if len(rows[-1]) != 4:
-            raise CliError(
-                f"--angles {item!r} must be four numbers theta_i,phi_i,theta_o,phi_o in degrees",
-                "angles",
-            )
-    return tuple(np.array(column) for column in zip(*rows))
-
-
-def _read(args):
-    from ..io import read
-
-    options = {"subsample": args.subsample} if getattr(args, "subsample", None) else {}
-    data = read(args.file, format=getattr(args, "format", None), **options)
-    if getattr(args, "channels", None):
-        data = data.select_channels([c.strip() for c in args.channels.split(",") if c.strip()])
-    return data
-
-
-# ----------------------------------------------------------------- commands
-def cmd_models(args) -> int:
-    from ..models import list_models
-
-    filters = {axis: getattr(args, axis) for axis in AXES if getattr(args, axis)}
-    if args.wave_optics is not None:
-        filters["wave_optics"] = args.wave_optics == "yes"
-    models = list_models(**filters)
-    found = [m.to_dict() for m in models]
-    if args.properties:
-        from ..models.properties import model_properties
-
-        progress = progress_for(args, "measuring")
-        for i, (model, out) in enumerate(zip(models, found)):
-            if progress:
-                progress.line(f"measuring {model.name} ({i + 1}/{len(models)})")
-            out["properties"] = model_properties(model)
-        if progress:
-            progress.done()
-    if args.json:
-        return print_json(found)
-    header = ["model", *AXES, "wave", "parameters"]
-    header += ["max albedo", "albedo <= 1", "reciprocity error"] if args.properties else []
-    rows = []
-    for m in found:
-        c, p = m["classification"], m.get("properties")
-        rows.append([m["name"], *(c[axis] for axis in AXES), "yes" if c["wave_optics"] else "no",
-                     ", ".join(q["name"] for q in m["params"])])  # fmt: skip
-        if p:
-            rows[-1] += [f"{np.max(p['max_albedo']):.3g}", "yes" if p["energy_conserving"] else
-                         "NO", f"{p['reciprocity_max']:.1e}"]  # fmt: skip
-    print(table(header, rows) if rows else "no model matches these filters")
-    if args.properties:
-        print("\nat each model's default parameters; albedo over theta_i = 0..85 degrees; "
-              "reciprocity: largest |f(L,V) - f(V,L)| / max f")  # fmt: skip
-    return 0
-
-
-def _posterior_options(args, progress) -> dict:
-    options = {"progress": progress}
-    for name in ("walkers", "max_seconds", "noise"):
-        if getattr(args, name) is not None:
-            options[name] = getattr(args, name)
-    return options
-
-
-def cmd_fit(args) -> int:
-    from ..fitting.core import fit
-
-    data = _read(args)
-    fit_progress = progress_for(args, f"fitting {args.model}")
-    post_progress = progress_for(args, "sampling", args.max_seconds or 60.0)
-    options = dict(
-        loss=args.loss,
-        seed=args.seed,
-        timeout=args.timeout,
-        fixed=_assignments(args.fixed, "--fixed") or None,
-        free=tuple(args.free or ()),
-        energy_conserving=args.energy_conserving,
-        progress=fit_progress,
-    )
-    if args.uncertainty:
-        options.update(uncertainty=True, posterior_options=_posterior_options(args, post_progress))
-    try:
-        result = fit(data, args.model, **options)
-    finally:
-        for progress in (fit_progress, post_progress):
-            if progress:
-                progress.done()
-    print(json.dumps(plain(result.to_dict()), indent=2) if args.json else
-          fit_text(data, result, args.file))  # fmt: skip
-    if not result.converged:
-        shout(f"the fit did not converge: {result.message}",
-               "give it more time (--timeout) or check the model and the data")  # fmt: skip
-    if result.posterior is not None and not result.posterior.converged:
-        shout("THE POSTERIOR DID NOT CONVERGE: the uncertainties above are not reliable.",
-               result.posterior.message, "give it more time with --max-seconds")  # fmt: skip
-    if args.plot:
-        _plots(args.plot, data, result, args.file)
-    return 0
-
-
-def _plots(path: str, data, result, label: str) -> None:
-    from ..plot.fit import plot_fit
-
-    written = [plot_fit(data, result, path, title=label)]
-    if result.posterior is not None:
-        from ..plot.corner import corner_plot
-
-        stem = path[:-4] if path.lower().endswith(".png") else path
-        written.append(f"{stem}_corner.png")
-        corner_plot(result.posterior, written[-1])
-    print(f"wrote {', '.join(str(w) for w in written)}", file=sys.stderr)
-
-
-def cmd_compare(args) -> int:
-    from ..fitting.compare import compare
-
-    models = [m.strip() for m in args.models.split(",") if m.strip()]
-    comparison = compare(
-        _read(args),
-        models,
-        loss=args.loss,
-        seed=args.seed,
-        test_fraction=args.test_fraction,
-        timeout=args.timeout,
-    )
-    if args.json:
-        return print_json(comparison.to_dict())
-    print(comparison)
-    print(
-        f"best by BIC: {comparison.best_by_bic}; best on the held-out samples: "
-        f"{comparison.best_by_heldout}"
-    )
-    return 0
-
-
-def cmd_synth(args) -> int:
-    from ..io import write
-    from ..synth import synthesize
-
-    data = synthesize(
-        args.model,
-        _assignments(args.params, "--params"),
-        geometry=args.geometry,
-        noise=args.noise,
-        noise_kind=args.noise_kind,
-        seed=args.seed,
-        n=args.n,
-    )
-    write(args.out, data, format=args.format)
-    print(
-        f"wrote {data.n} samples ({', '.join(data.channels)}) of {args.model} to {args.out}",
-        file=sys.stderr,
-    )
-    return 0
-
-
-def cmd_evaluate(args) -> int:
-    from ..data.measurements import Measurements
-    from ..models import get_model
-
-    if bool(args.angles) == bool(args.file):
-        raise CliError(
-            "give the direction pairs with --angles or with --file, one of the two", "angles"
-        )
-    model = get_model(args.model)
-    angles = _angles(args.angles) if args.angles else _read(args).angles()
-    pairs = Measurements.from_angles(*angles, np.zeros(len(angles[0])))
-    params = model.check_params({**model.defaults(), **_assignments(args.params, "--params")})
-    values = np.asarray(model.evaluate(pairs.wi, pairs.wo, params), dtype=float)
-    names = ("theta_i", "phi_i", "theta_o", "phi_o")
-    if args.json:
-        out = {"model": model.name, "params": params, **dict(zip(names, angles))}
-        return print_json(out | {"values": values, "units": "1/sr"})
-    columns = values.reshape(len(values), -1)
-    width = columns.shape[1]
-    channels = {1: ["value"], 3: ["r", "g", "b"]}.get(width, [f"c{i}" for i in range(width)])
-    print(",".join([*names, *channels]))
-    for row in zip(*angles, *columns.T):
-        print(",".join(repr(float(x)) for x in row))
-    return 0
-
-
-def cmd_serve(args) -> int:
-    import uvicorn
-
-    from service import Settings, create_app
-    from service.settings import SettingsError
-
-    try:
-        settings = Settings.from_env(
-            workers=args.workers, fit_workers=args.fit_workers, store_path=args.store
-        )
-    except SettingsError as exc:
-        raise CliError(str(exc), "settings") from None
-    print(
-        f"brdffit {__version__}: http://{args.host}:{args.port}/docs, jobs in "
-        f"{settings.store_path} ({settings.workers} workers)",
-        file=sys.stderr,
-    )
-    uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level=args.log_level)
-    return 0
 
 
 # ------------------------------------------------------------------- parser
@@ -302,8 +65,6 @@ _count = _number(int, 1, 10**9, "a whole number >= 1")
 
 
 def _add_fit_options(p) -> None:
-    from ..fitting.losses import LOSSES
-
     p.add_argument(
         "file", help="a data file: CSV, ASTM, pbrt .brdf, MERL .binary, MBSDF, NPZ, RGL .bsdf"
     )
@@ -320,16 +81,7 @@ def _add_fit_options(p) -> None:
     _add_json(p)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
-        prog="brdffit",
-        description="Fit analytic BRDF models to measured reflectance, with uncertainties.",
-    )
-    parser.add_argument("--version", action="version", version=f"brdffit {__version__}")
-    sub = parser.add_subparsers(
-        dest="command", required=True, metavar="COMMAND", parser_class=_Parser
-    )
-
+def _add_models(sub) -> None:
     p = sub.add_parser("models", help="list the models and their classification")
     for axis, choices in AXES.items():
         p.add_argument(f"--{axis}", choices=choices)
@@ -342,6 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_json(p)
     p.set_defaults(run=cmd_models)
 
+
+def _add_fit(sub) -> None:
     p = sub.add_parser("fit", help="fit a model to a data file")
     _add_fit_options(p)
     p.add_argument("--model", required=True, help='a model name, or a sum "lambert+blinn"')
@@ -360,15 +114,23 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("given", "absolute", "relative"),
         help="noise model of the posterior (default: given when the data have sigma)",
     )
-    p.add_argument("--plot", metavar="PNG", help="plot measured vs fitted (and the corner plot)")
+    p.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="plot measured vs fitted (and the corner plot); needs the 'plot' extra",
+    )
     p.set_defaults(run=cmd_fit)
 
+
+def _add_compare(sub) -> None:
     p = sub.add_parser("compare", help="fit several models and rank them")
     _add_fit_options(p)
     p.add_argument("--models", required=True, help="comma-separated model names")
     p.add_argument("--test-fraction", type=float, default=0.2, help="held-out share (0.2)")
     p.set_defaults(run=cmd_compare)
 
+
+def _add_synth(sub) -> None:
     p = sub.add_parser("synth", help="write synthetic measurements of a model")
     p.add_argument("--model", required=True)
     p.add_argument("--params", nargs="*", metavar="NAME=VALUE", help="defaults where not given")
@@ -381,6 +143,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="the file to write")
     p.set_defaults(run=cmd_synth)
 
+
+def _add_evaluate(sub) -> None:
     p = sub.add_parser("evaluate", help="evaluate a model at direction pairs")
     p.add_argument("--model", required=True)
     p.add_argument("--params", nargs="*", metavar="NAME=VALUE", help="defaults where not given")
@@ -394,7 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_json(p)
     p.set_defaults(run=cmd_evaluate)
 
-    p = sub.add_parser("serve", help="run the HTTP service")
+
+def _add_serve(sub) -> None:
+    p = sub.add_parser("serve", help="run the HTTP service (needs the 'service' extra)")
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=_port, default=8000)
     p.add_argument("--workers", type=_count, help="processes running jobs (BRDFFIT_WORKERS, 2)")
@@ -402,6 +168,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--store", help="SQLite file of jobs (BRDFFIT_STORE_PATH)")
     p.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
     p.set_defaults(run=cmd_serve)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of every subcommand; each sets ``run``, the function that does it."""
+    parser = _Parser(
+        prog="brdffit",
+        description="Fit analytic BRDF models to measured reflectance, with uncertainties.",
+    )
+    parser.add_argument("--version", action="version", version=f"brdffit {__version__}")
+    sub = parser.add_subparsers(
+        dest="command", required=True, metavar="COMMAND", parser_class=_Parser
+    )
+    for add in (_add_models, _add_fit, _add_compare, _add_synth, _add_evaluate, _add_serve):
+        add(sub)
     return parser
 
 
@@ -422,7 +202,7 @@ def main(argv=None) -> int:
         warnings.showwarning = _warn
         try:
             return args.run(args)
-        except BrdfFitError as exc:
+        except (BrdfFitError, MissingExtraError) as exc:
             message = str(exc)
         except (FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError) as exc:
             message = f"{exc.filename}: {exc.strerror}"

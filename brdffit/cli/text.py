@@ -1,16 +1,27 @@
-"""What the ``brdffit`` command shows: progress lines, tables of fitted values
-with their uncertainties, and JSON with NaN and infinities as null."""
+"""What the ``brdffit`` command shows: progress lines, tables of models and of fitted
+values with their uncertainties, CSV of evaluated models, and strict JSON
+(:func:`brdffit.jsonable.dumps`: NaN and infinities as null)."""
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
 
 import numpy as np
 
-__all__ = ["Progress", "fit_text", "plain", "print_json", "progress_for", "shout", "table"]
+from ..jsonable import dumps
+
+__all__ = [
+    "Progress",
+    "evaluate_csv",
+    "fit_text",
+    "models_text",
+    "print_json",
+    "progress_for",
+    "shout",
+    "table",
+]
 
 
 # ----------------------------------------------------------------- progress
@@ -140,17 +151,37 @@ def shout(*lines: str) -> None:
     sys.stderr.write("\n".join([bar, *lines, bar]) + "\n")
 
 
-def plain(value):
-    """JSON-ready: arrays as lists, NaN and infinities as null (JSON has neither)."""
-    if isinstance(value, dict):
-        return {k: plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [plain(v) for v in value]
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    return value.item() if isinstance(value, np.generic) else value
-
-
 def print_json(obj) -> int:
-    print(json.dumps(plain(obj), indent=2, allow_nan=False))
+    """Print ``obj`` as strict JSON (:func:`brdffit.jsonable.dumps`), indented; return 0."""
+    print(dumps(obj, indent=2))
     return 0
+
+
+def models_text(found: list, axes: list, properties: bool) -> str:
+    """The table of ``brdffit models``: ``found`` are the models' ``to_dict()``, with
+    ``properties`` (of :func:`~brdffit.models.properties.model_properties`) when measured."""
+    header = ["model", *axes, "wave", "parameters"]
+    header += ["max albedo", "albedo <= 1", "reciprocity error"] if properties else []
+    rows = []
+    for m in found:
+        c, p = m["classification"], m.get("properties")
+        rows.append([m["name"], *(c[axis] for axis in axes), "yes" if c["wave_optics"] else "no",
+                     ", ".join(q["name"] for q in m["params"])])  # fmt: skip
+        if p:
+            rows[-1] += [f"{np.max(p['max_albedo']):.3g}", "yes" if p["energy_conserving"] else
+                         "NO", f"{p['reciprocity_max']:.1e}"]  # fmt: skip
+    text = table(header, rows) if rows else "no model matches these filters"
+    if properties:
+        text += ("\n\nat each model's default parameters; albedo over theta_i = 0..85 degrees; "
+                 "reciprocity: largest |f(L,V) - f(V,L)| / max f")  # fmt: skip
+    return text
+
+
+def evaluate_csv(names, angles, values) -> str:
+    """CSV of ``brdffit evaluate``: the angle columns, then one column per channel."""
+    columns = values.reshape(len(values), -1)
+    width = columns.shape[1]
+    channels = {1: ["value"], 3: ["r", "g", "b"]}.get(width, [f"c{i}" for i in range(width)])
+    lines = [",".join([*names, *channels])]
+    lines += [",".join(repr(float(x)) for x in row) for row in zip(*angles, *columns.T)]
+    return "\n".join(lines)

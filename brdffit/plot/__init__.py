@@ -1,2 +1,7 @@
 """Plots (matplotlib, the ``plot`` extra): :mod:`.fit` for a fit against its data,
-:mod:`.corner` for a posterior."""
+:mod:`.corner` for a posterior. Importing this package without matplotlib raises
+:class:`~brdffit.errors.MissingExtraError` naming the extra."""
+
+from .._extras import require
+
+require("matplotlib", "plot")

@@ -15,6 +15,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from .._extras import require
 from ..errors import FitError
 
 __all__ = ["corner_plot", "trace_plot"]
@@ -58,8 +59,7 @@ def corner_plot(posterior, path, names=None, dpi: int = 100) -> Path:
 
     The dashed lines are the 16th, 50th and 84th percentiles, as in the summary.
     """
-    import corner
-
+    corner = require("corner", "plot")
     names = _corner_names(posterior, names)
     data = posterior.samples[:, [posterior.index(n) for n in names]]
     # corner needs some spread in every shown column; a parameter with none gets a

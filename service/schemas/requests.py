@@ -1,48 +1,35 @@
-"""Bodies and answers of the HTTP service, one to one with the library's calls.
+"""Bodies of the HTTP service, one to one with the library's calls.
 
 - :class:`DataIn` is :meth:`brdffit.Measurements.from_angles` (angles in degrees);
 - :class:`FitOptions` holds the keyword options of :func:`brdffit.fit`, and
-  :class:`PosteriorOptions` those of :func:`brdffit.posterior.sample.sample_posterior`;
-- :class:`FitResultOut`, :class:`PosteriorOut` and :class:`ModelOut` are the
-  ``to_dict()`` of :class:`~brdffit.fitting.result.FitResult`, of the posterior and of
-  :class:`~brdffit.models.base.Model`. Answers accept extra keys, so that a
-  field added to a ``to_dict()`` reaches clients without a change here.
+  :class:`PosteriorOptions` those of :func:`brdffit.sample_posterior`;
+- :class:`FitIn` and :class:`EvaluateIn` are the bodies of ``POST /fit`` and
+  ``POST /evaluate``.
 """
 
 from __future__ import annotations
 
 import inspect
-from typing import Any, Literal
+from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
 import brdffit
 from brdffit.fitting.losses import LOSSES
-from brdffit.posterior.sample import sample_posterior
 
 __all__ = [
+    "EXAMPLE_DATA",
     "DataIn",
-    "ErrorItem",
-    "ErrorOut",
     "EvaluateIn",
-    "EvaluateOut",
     "FitIn",
     "FitOptions",
-    "FitResultOut",
-    "HealthOut",
-    "JobOut",
-    "JobProgress",
-    "ModelOut",
+    "JobStatus",
     "PosteriorOptions",
-    "PosteriorOut",
 ]
 
 LossName = Literal[tuple(LOSSES)]  # type: ignore[valid-type]
 Number = float
 PerChannel = float | list[float]
-#: Answers say null where a number is not finite (JSON has no NaN).
-MaybeFloat = float | None
-PerChannelOut = MaybeFloat | list[MaybeFloat]
 #: Seeds go to numpy and nlopt, which take unsigned 32-bit integers.
 SEED_MAX = 2**32 - 1
 JobStatus = Literal["queued", "running", "done", "failed", "interrupted"]
@@ -58,7 +45,7 @@ def _defaults(function) -> dict:
 
 
 FIT = _defaults(brdffit.fit)
-POSTERIOR = _defaults(sample_posterior)
+POSTERIOR = _defaults(brdffit.sample_posterior)
 
 
 def _example_data() -> dict:
@@ -222,143 +209,3 @@ class EvaluateIn(BaseModel):
     phi_i: list[Number] = Field(min_length=1)
     theta_o: list[Number] = Field(min_length=1)
     phi_o: list[Number] = Field(min_length=1)
-
-
-class EvaluateOut(BaseModel):
-    """BRDF values (1/sr), (N,) or (N, C) when linear params are given per channel."""
-
-    model_config = ConfigDict(extra="allow")
-
-    model: str
-    params: dict[str, PerChannelOut]
-    values: list[MaybeFloat] | list[list[MaybeFloat]]
-    units: str = "1/sr"
-
-
-class ParamOut(BaseModel):
-    model_config = ConfigDict(extra="allow")
-
-    name: str
-    lower: float
-    upper: float
-    default: float
-    log_scale: bool
-    linear: bool
-    unit: str
-    doc: str
-
-
-class ModelOut(BaseModel):
-    """``Model.to_dict()``, and ``properties`` (``model_properties``) if asked."""
-
-    model_config = ConfigDict(extra="allow")
-
-    name: str
-    params: list[ParamOut]
-    classification: dict[str, Any]
-    reference: str
-    reciprocal: bool
-    doc: str
-    properties: dict[str, Any] | None = None
-
-
-class PosteriorOut(BaseModel):
-    """``Posterior.to_dict()``: summary (median, p16, p84, mean, std), diagnostics."""
-
-    model_config = ConfigDict(extra="allow")
-
-    model: str
-    names: list[str]
-    summary: dict[str, dict[str, MaybeFloat]]
-    converged: bool
-    message: str
-
-
-class FitResultOut(BaseModel):
-    """``FitResult.to_dict()``."""
-
-    model_config = ConfigDict(extra="allow")
-
-    model: str
-    params: dict[str, PerChannelOut]
-    loss: MaybeFloat
-    loss_name: str
-    metrics: dict[str, MaybeFloat]
-    n_samples: int
-    n_channels: int
-    n_values: int
-    n_params: int
-    n_evals: int
-    seconds: float
-    converged: bool
-    message: str
-    channels: list[str]
-    fixed: dict[str, Any]
-    options: dict[str, Any]
-    at_bounds: list[str]
-    posterior: PosteriorOut | None = None
-    data_notes: list[str] | None = Field(
-        None,
-        description="In the answer to POST /fit and /fit/file: what reading the data "
-        "noticed and kept or dropped (values below zero, pairs a reader dropped), "
-        "as the library's warnings say it.",
-    )
-
-
-class ErrorItem(BaseModel):
-    field: str | None = Field(description="The input that is wrong, as a dotted path.")
-    message: str
-
-
-class ErrorOut(BaseModel):
-    """Every 4xx and 5xx answer: what is wrong, and where."""
-
-    field: str | None = Field(description="The input that is wrong, as a dotted path.")
-    message: str = Field(description="A sentence saying what is wrong and what is needed.")
-    kind: str = Field(description="The error's class (DataError, ValidationError...).")
-    errors: list[ErrorItem] = Field(default_factory=list, description="Every problem found.")
-
-
-class JobProgress(BaseModel):
-    """The last progress report of a running job."""
-
-    model_config = ConfigDict(extra="allow")
-
-    stage: str = Field(description='"global", "local 1/3"... of the fit, or "posterior".')
-    seconds: float = Field(description="Seconds since the stage's call started.")
-    n_evals: int | None = None
-    best_loss: float | None = None
-    steps: int | None = None
-    max_steps: int | None = None
-    autocorr_time: float | None = None
-    effective_samples: int | None = None
-
-
-class JobOut(BaseModel):
-    """A job: its state, its last progress, and its result or error."""
-
-    id: str
-    status: JobStatus = Field(
-        description="queued, running, done, failed, or interrupted (the server stopped "
-        "while it ran: POST /jobs/{id}/resubmit runs it again)."
-    )
-    model: str
-    created: str
-    started: str | None = None
-    finished: str | None = None
-    attempt: int = Field(description="How many times the job was submitted.")
-    progress: JobProgress | None = None
-    result: FitResultOut | None = None
-    error: ErrorOut | None = None
-    data_notes: list[str] | None = Field(
-        None,
-        description="What reading the job's data noticed (values below zero, pairs a "
-        "reader dropped); kept with the job.",
-    )
-
-
-class HealthOut(BaseModel):
-    status: Literal["ok"]
-    version: str
-    workers: int
-    jobs: dict[str, int] = Field(description="Number of jobs in each status.")

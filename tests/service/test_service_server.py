@@ -19,7 +19,7 @@ from pathlib import Path
 
 import httpx
 import pytest
-from job_polling import wait_for
+from service_helpers import wait_for
 
 import brdffit
 

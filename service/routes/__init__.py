@@ -1,0 +1,12 @@
+"""The routes, one module per resource; :data:`router` gathers them for the app."""
+
+from fastapi import APIRouter
+
+from . import fit, health, jobs, models
+from .common import SERVER_ERRORS
+
+__all__ = ["router"]
+
+router = APIRouter(responses=SERVER_ERRORS)
+for _module in (health, models, fit, jobs):
+    router.include_router(_module.router)

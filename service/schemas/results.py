@@ -1,0 +1,118 @@
+"""Answers of the fit routes: ``FitResult.to_dict()`` and ``Posterior.to_dict()``.
+
+Every key of those ``to_dict()``s is a field here, typed and described, so that
+the OpenAPI document shows clients all of an answer; ``tests/service`` checks
+the keys of a real fit and a real posterior against these fields. A number
+that is not finite is ``null`` (JSON has no NaN: :mod:`brdffit.jsonable`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = ["FitResultOut", "MaybeFloat", "PerChannelOut", "PosteriorOut", "SummaryOut"]
+
+#: Answers say null where a number is not finite (JSON has no NaN).
+MaybeFloat = float | None
+PerChannelOut = MaybeFloat | list[MaybeFloat]
+Matrix = list[list[MaybeFloat]]
+ANSWER = ConfigDict(extra="forbid")
+
+
+class SummaryOut(BaseModel):
+    """The marginal posterior of one parameter, in its natural units."""
+
+    model_config = ANSWER
+
+    median: MaybeFloat = Field(description="The 50th percentile of the samples.")
+    p16: MaybeFloat = Field(description="The 16th percentile (median - 1 sigma if Gaussian).")
+    p84: MaybeFloat = Field(description="The 84th percentile (median + 1 sigma if Gaussian).")
+    mean: MaybeFloat = Field(description="The mean of the samples.")
+    std: MaybeFloat = Field(description="Their standard deviation (ddof = 1).")
+
+
+class PosteriorOut(BaseModel):
+    """``Posterior.to_dict()``: the summary, the covariance and emcee's diagnostics."""
+
+    model_config = ANSWER
+
+    model: str = Field(description="The fitted model's name.")
+    loss: str = Field(description="The loss on whose residuals the likelihood is Gaussian.")
+    noise: str = Field(description='The noise model: "given", "absolute" or "relative".')
+    noise_meaning: str = Field(description="What the noise model means, in words.")
+    names: list[str] = Field(
+        description="Parameter names: the keys of `summary`, the rows and columns of "
+        '`covariance`; per-channel coefficients as "kd[r]", the noise as "noise".'
+    )
+    summary: dict[str, SummaryOut] = Field(description="Name -> its marginal posterior.")
+    covariance: Matrix = Field(description="Covariance of the samples, in `names` order.")
+    correlation: Matrix = Field(description="Correlation matrix, in `names` order.")
+    sampled: list[str] = Field(
+        description="The coordinates emcee sampled: free shape parameters, then noise."
+    )
+    sampled_log: list[bool] = Field(description="Which sampled coordinates were log10.")
+    autocorr_time: dict[str, MaybeFloat] = Field(
+        description="Integrated autocorrelation time, in steps, of each sampled coordinate."
+    )
+    effective_samples: int = Field(
+        description="The smallest effective sample size of the sampled coordinates."
+    )
+    acceptance_fraction: MaybeFloat = Field(description="emcee's acceptance, mean of walkers.")
+    converged: bool = Field(
+        description="At least 50 autocorrelation times of sampling after burn-in."
+    )
+    message: str = Field(description="Why sampling stopped, in words.")
+    n_samples: int = Field(description="Samples kept (after burn-in, thinned).")
+    n_walkers: int = Field(description="emcee walkers.")
+    n_steps: int = Field(description="Steps each walker took.")
+    burn: int = Field(description="Steps discarded as burn-in.")
+    thin: int = Field(description="Every `thin`-th step was kept.")
+    seconds: float = Field(description="Wall-clock seconds of sampling.")
+    seed: int = Field(description="The seed of the sampler (same seed, same samples).")
+    channels: list[str] = Field(description="The data's channels.")
+
+
+class FitResultOut(BaseModel):
+    """``FitResult.to_dict()``, and in answers to ``POST /fit`` the data's notes."""
+
+    model_config = ANSWER
+
+    model: str = Field(description='The fitted model ("a+b" for a sum of lobes).')
+    params: dict[str, PerChannelOut] = Field(
+        description="Fitted values: a number, or one per channel for linear parameters."
+    )
+    loss: MaybeFloat = Field(description="The minimised loss at `params`.")
+    loss_name: str = Field(description="Which loss was minimised.")
+    metrics: dict[str, MaybeFloat] = Field(
+        description="Every named loss at `params` (chi2 only with sigma), rmse, aic, bic."
+    )
+    n_samples: int = Field(description="Direction pairs fitted.")
+    n_channels: int = Field(description="Channels (colours or wavelengths) per sample.")
+    n_values: int = Field(description="Observations: n_samples x n_channels.")
+    n_params: int = Field(
+        description="Fitted parameters: free shape ones + free linear ones x channels."
+    )
+    n_evals: int = Field(description="Evaluations of the objective (global + local).")
+    seconds: float = Field(description="Wall-clock seconds of the fit.")
+    converged: bool = Field(
+        description="The local polish ended on its tolerance (not a budget or a timeout)."
+    )
+    message: str = Field(description="What happened, in words.")
+    channels: list[str] = Field(description="The data's channel names.")
+    fixed: dict[str, PerChannelOut] = Field(description="Parameters held fixed.")
+    options: dict[str, Any] = Field(
+        description="The options of the fit (loss, algorithms, budgets, seed, a summary of "
+        "the weights...), enough to reproduce it."
+    )
+    at_bounds: list[str] = Field(description="Shape parameters that ended at a bound.")
+    posterior: PosteriorOut | None = Field(
+        None, description="The posterior, when `uncertainty` was asked for."
+    )
+    data_notes: list[str] | None = Field(
+        None,
+        description="In the answer to POST /fit and /fit/file: what reading the data "
+        "noticed and kept or dropped (values below zero, pairs a reader dropped), "
+        "as the library's warnings say it.",
+    )

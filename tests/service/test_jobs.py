@@ -1,0 +1,161 @@
+"""/jobs: jobs run to the library's result, fail saying why, survive restarts."""
+
+from __future__ import annotations
+
+import sqlite3
+import time
+
+import pytest
+from fastapi.testclient import TestClient
+from service_helpers import WARD_CSV, assert_error, example_measurements, wait_for, without_seconds
+
+import brdffit
+from brdffit.jsonable import jsonable
+from service import Settings, create_app
+from service.jobs import FitPool
+from service.schemas import EXAMPLE_DATA
+from service.store import SCHEMA, JobStore, data_to_bytes
+
+
+def test_a_job_runs_to_the_library_result(client):
+    answer = client.post("/jobs", json={"model": "blinn", "data": EXAMPLE_DATA, "seed": 5})
+    assert answer.status_code == 202, answer.text
+    job = answer.json()
+    assert job["status"] == "queued" and answer.headers["location"] == f"/jobs/{job['id']}"
+    done = wait_for(client, job["id"])
+    assert done["status"] == "done", done
+    expected = brdffit.fit(example_measurements(), "blinn", seed=5, timeout=30.0).to_dict()
+    assert done["result"]["params"] == expected["params"]
+    assert done["started"] >= done["created"] and done["finished"] >= done["started"]
+    listed = client.get("/jobs", params={"status": "done"}).json()
+    assert job["id"] in [j["id"] for j in listed]
+
+
+def test_a_job_with_uncertainty_carries_the_posterior(client):
+    body = {
+        "model": "ward",
+        "data": EXAMPLE_DATA,
+        "uncertainty": True,
+        "posterior_options": {"noise": "relative", "seed": 2},
+    }
+    job = wait_for(client, client.post("/jobs", json=body).json()["id"])
+    assert job["status"] == "done", job
+    assert "alpha" in job["result"]["posterior"]["summary"]
+
+
+def test_a_job_failing_at_run_time_says_why_and_can_be_resubmitted(client):
+    # noise="given" needs sigma, which these data lack: only the posterior finds out.
+    body = {
+        "model": "blinn",
+        "data": EXAMPLE_DATA,
+        "uncertainty": True,
+        "posterior_options": {"noise": "given"},
+    }
+    job_id = client.post("/jobs", json=body).json()["id"]
+    failed = wait_for(client, job_id)
+    assert failed["status"] == "failed"
+    assert failed["error"]["field"] == "noise" and "sigma" in failed["error"]["message"]
+    again = client.post(f"/jobs/{job_id}/resubmit")
+    assert again.status_code == 202 and again.json()["attempt"] == 2
+    assert wait_for(client, job_id)["status"] == "failed"
+
+
+def test_jobs_validate_before_accepting(client):
+    body = {"model": "ward", "data": EXAMPLE_DATA, "fixed": {"alpha": 7}}
+    assert_error(client.post("/jobs", json=body), 422, "alpha", "outside")
+    with open(WARD_CSV, "rb") as f:
+        answer = client.post(
+            "/jobs/file", files={"file": ("ward.csv", f)}, data={"model": "ward", "format": "astm"}
+        )
+    assert_error(answer, 422)
+
+
+def test_job_file_upload_runs(client):
+    with open(WARD_CSV, "rb") as f:
+        answer = client.post("/jobs/file", files={"file": ("ward.csv", f)}, data={"model": "ward"})
+    assert answer.status_code == 202, answer.text
+    job = wait_for(client, answer.json()["id"])
+    expected = brdffit.fit(brdffit.read(WARD_CSV), "ward", timeout=30.0).to_dict()
+    assert job["result"]["params"] == expected["params"]
+
+
+def test_unknown_jobs_are_404_and_finished_ones_are_not_resubmitted(client):
+    assert_error(client.get("/jobs/nope"), 404, "id")
+    assert_error(client.delete("/jobs/nope"), 404, "id")
+    assert_error(client.post("/jobs/nope/resubmit"), 404, "id")
+    job_id = client.post("/jobs", json={"model": "lambert", "data": EXAMPLE_DATA}).json()["id"]
+    wait_for(client, job_id)
+    assert_error(client.post(f"/jobs/{job_id}/resubmit"), 409, "id", "done")
+
+
+def test_deleting_a_running_job_frees_its_worker(client):
+    # A posterior of 10^6 steps would hold the only worker for a minute.
+    body = {
+        "model": "ward",
+        "data": EXAMPLE_DATA,
+        "uncertainty": True,
+        "posterior_options": {
+            "steps": 1_000_000,
+            "max_steps": 1_000_000,
+            "max_seconds": 60,
+            "noise": "relative",
+        },
+    }
+    long_id = client.post("/jobs", json=body).json()["id"]
+    wait_for(client, long_id, statuses=("running",))
+    assert client.delete(f"/jobs/{long_id}").status_code == 204
+    assert_error(client.get(f"/jobs/{long_id}"), 404)
+    t0 = time.monotonic()
+    short = client.post("/jobs", json={"model": "lambert", "data": EXAMPLE_DATA}).json()
+    assert wait_for(client, short["id"], seconds=20)["status"] == "done"
+    assert time.monotonic() - t0 < 20
+
+
+def test_restart_interrupts_running_jobs_and_requeues_queued_ones(tmp_path):
+    store = JobStore(tmp_path / "jobs.sqlite3")
+    blob = data_to_bytes(example_measurements())
+    running = store.create("lambert", {"seed": 0}, blob)
+    store.start(running["id"], 1)
+    queued = store.create("lambert", {"seed": 0}, blob)
+    settings = Settings(store_path=tmp_path / "jobs.sqlite3", workers=1, fit_workers=0)
+    with TestClient(create_app(settings)) as c:
+        cut = c.get(f"/jobs/{running['id']}").json()
+        assert cut["status"] == "interrupted" and "resubmit" in cut["error"]["message"]
+        assert wait_for(c, queued["id"])["status"] == "done"
+        assert c.post(f"/jobs/{running['id']}/resubmit").status_code == 202
+        rerun = wait_for(c, running["id"])
+        assert rerun["status"] == "done" and rerun["attempt"] == 2
+        expected = brdffit.fit(example_measurements(), "lambert", seed=0)
+        assert rerun["result"]["params"]["kd"] == list(expected.params["kd"])
+
+
+def test_fit_pool_returns_the_library_result_and_its_errors():
+    pool = FitPool(1)
+    try:
+        data = example_measurements()
+        got = pool.run(data, "blinn", {"seed": 1})
+        expected = jsonable(brdffit.fit(data, "blinn", seed=1).to_dict())
+        assert without_seconds(got) == without_seconds(expected)
+        with pytest.raises(brdffit.ModelError) as caught:
+            pool.run(data, "blin", {})
+        assert caught.value.field == "model" and "did you mean blinn" in str(caught.value)
+    finally:
+        pool.close()
+
+
+def test_a_store_from_before_data_notes_gains_them(tmp_path):
+    """A job store written by the previous schema (no notes column) opens, keeps its
+    jobs, and answers them with no notes; new jobs keep theirs."""
+    path = tmp_path / "old.sqlite3"
+    old_schema = SCHEMA.replace(",\n    notes TEXT", "")
+    assert "notes" not in old_schema
+    with sqlite3.connect(path) as db:
+        db.executescript(old_schema)
+        db.execute(
+            "INSERT INTO jobs (id, status, model, options, data, created, attempt) "
+            "VALUES ('old', 'done', 'lambert', '{}', x'00', 0, 1)"
+        )
+    store = JobStore(path)
+    assert store.get("old")["data_notes"] == []
+    new = store.create("lambert", {}, b"\x00", ["request: 1 of 3 values are negative"])
+    assert store.get(new["id"])["data_notes"] == ["request: 1 of 3 values are negative"]
