@@ -7,7 +7,6 @@ mapping a read-only view, so a Posterior can be shared and cached.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -15,7 +14,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ..errors import FitError
-from ..fitting.result import _jsonable
+from ..jsonable import jsonable
 
 __all__ = ["Posterior", "NOISE_MEANING"]
 
@@ -131,21 +130,24 @@ class Posterior:
             ) from None
 
     def to_dict(self, include_samples: bool = False) -> dict:
-        """A JSON-ready dict; ``include_samples`` adds the samples (rows of ``names``)."""
+        """A dict ready for strict JSON (:func:`brdffit.jsonable.jsonable`: a NaN or an
+        infinity, e.g. the correlation of a parameter that did not move, is None;
+        matrices are lists of rows); ``include_samples`` adds the samples (rows of
+        ``names``)."""
         out = {
             "model": self.model,
             "loss": self.loss,
             "noise": self.noise,
             "noise_meaning": self.noise_meaning,
             "names": list(self.names),
-            "summary": _jsonable({k: dict(v) for k, v in self.summary.items()}),
-            "covariance": _matrix(self.covariance),
-            "correlation": _matrix(self.correlation),
+            "summary": {k: dict(v) for k, v in self.summary.items()},
+            "covariance": self.covariance,
+            "correlation": self.correlation,
             "sampled": list(self.sampled),
             "sampled_log": list(self.sampled_log),
-            "autocorr_time": _jsonable(dict(self.autocorr_time)),
+            "autocorr_time": dict(self.autocorr_time),
             "effective_samples": self.effective_samples,
-            "acceptance_fraction": _jsonable(self.acceptance_fraction),
+            "acceptance_fraction": self.acceptance_fraction,
             "converged": self.converged,
             "message": self.message,
             "n_samples": int(self.samples.shape[0]),
@@ -158,8 +160,8 @@ class Posterior:
             "channels": list(self.channels),
         }
         if include_samples:
-            out["samples"] = _matrix(self.samples)
-        return out
+            out["samples"] = self.samples
+        return jsonable(out)
 
     def __str__(self) -> str:
         lines = [
@@ -177,7 +179,3 @@ def _readonly(a) -> np.ndarray:
     a = np.array(a, dtype=float, copy=True)
     a.setflags(write=False)
     return a
-
-
-def _matrix(a: np.ndarray) -> list:
-    return [[None if not math.isfinite(v) else float(v) for v in row] for row in a]
