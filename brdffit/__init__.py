@@ -4,7 +4,8 @@ from .data.geometry import Geometry
 from .data.measurements import Measurements
 from .errors import BrdfFitError, DataError, FitError, FormatError, ModelError, ParameterError
 from .fitting.compare import compare
-from .fitting.core import fit
+from .fitting.core import check_fit, fit
+from .fitting.engine import StopFit
 from .io import read, write
 from .models import REGISTRY, get_model, list_models
 from .posterior.sample import sample_posterior
@@ -20,6 +21,8 @@ __all__ = [
     "Measurements",
     "ModelError",
     "ParameterError",
+    "StopFit",
+    "check_fit",
     "compare",
     "fit",
     "get_model",

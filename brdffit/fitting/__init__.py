@@ -9,7 +9,18 @@ checks the result's albedo, :mod:`.result` holds the answer and
 """
 
 from .compare import Comparison, compare
-from .core import fit
+from .core import check_fit, fit
+from .engine import FitProgress, StopFit
+from .options import FitOptions
 from .result import FitResult
 
-__all__ = ["Comparison", "FitResult", "compare", "fit"]
+__all__ = [
+    "Comparison",
+    "FitOptions",
+    "FitProgress",
+    "FitResult",
+    "StopFit",
+    "check_fit",
+    "compare",
+    "fit",
+]

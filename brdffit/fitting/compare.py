@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import FitError
+from ..jsonable import jsonable
 from ..models import get_model
 from .core import fit
 from .losses import LossContext, get_loss
@@ -43,10 +44,14 @@ class ComparisonEntry:
     def to_dict(self) -> dict:
         return {
             "model": self.model,
-            "bic": self.bic,
-            "aic": self.aic,
-            "heldout_rmse": self.heldout_rmse,
-            "heldout_loss": self.heldout_loss,
+            **jsonable(
+                {
+                    "bic": self.bic,
+                    "aic": self.aic,
+                    "heldout_rmse": self.heldout_rmse,
+                    "heldout_loss": self.heldout_loss,
+                }
+            ),
             "rank_bic": self.rank_bic,
             "rank_heldout": self.rank_heldout,
             "fit": self.fit.to_dict(),

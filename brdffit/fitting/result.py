@@ -10,23 +10,14 @@ from typing import Any
 
 import numpy as np
 
+from ..jsonable import jsonable
 from .losses import LOSSES, LossContext
 
 __all__ = ["FitResult", "metrics_of"]
 
 
-def _jsonable(value):
-    if isinstance(value, np.ndarray):
-        return [float(v) for v in value.ravel()]
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, Mapping):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
+#: Kept until posterior/result.py imports :func:`brdffit.jsonable.jsonable` itself.
+_jsonable = jsonable
 
 
 @dataclass(frozen=True)
@@ -60,9 +51,16 @@ class FitResult:
     fixed : mapping
         Parameters held fixed.
     options : mapping
-        The options of the fit (loss, algorithms, budgets, seed...), for reproducing it.
+        The options of the fit (loss, algorithms, budgets, seed...), for reproducing
+        it; ``options["weights"]`` summarises the per-sample weights (``count``,
+        ``min``, ``max``, ``zeros``) or is None.
     at_bounds : tuple of str
         Shape parameters that ended at a bound of their range.
+    posterior : Posterior or None
+        The posterior, when the fit was asked for ``uncertainty``.
+    weights : ndarray (N,) or None
+        The per-sample weights the fit used, as given (read-only; not in
+        :meth:`to_dict`, whose ``options`` summarise them).
     """
 
     model: str
@@ -83,10 +81,15 @@ class FitResult:
     options: Mapping[str, Any] = field(default_factory=dict)
     at_bounds: tuple = ()
     posterior: Any = None
+    weights: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         for name in ("params", "metrics", "fixed", "options"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
+        if self.weights is not None:
+            weights = np.array(self.weights, dtype=float)
+            weights.setflags(write=False)
+            object.__setattr__(self, "weights", weights)
 
     @property
     def is_valid(self) -> bool:
@@ -96,10 +99,10 @@ class FitResult:
     def to_dict(self) -> dict:
         out = {
             "model": self.model,
-            "params": _jsonable(dict(self.params)),
-            "loss": _jsonable(self.loss),
+            "params": jsonable(dict(self.params)),
+            "loss": jsonable(self.loss),
             "loss_name": self.loss_name,
-            "metrics": _jsonable(dict(self.metrics)),
+            "metrics": jsonable(dict(self.metrics)),
             "n_samples": self.n_samples,
             "n_channels": self.n_channels,
             "n_values": self.n_values,
@@ -109,8 +112,8 @@ class FitResult:
             "converged": self.converged,
             "message": self.message,
             "channels": list(self.channels),
-            "fixed": _jsonable(dict(self.fixed)),
-            "options": _jsonable(dict(self.options)),
+            "fixed": jsonable(dict(self.fixed)),
+            "options": jsonable(dict(self.options)),
             "at_bounds": list(self.at_bounds),
         }
         if self.posterior is not None:

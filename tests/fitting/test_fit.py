@@ -198,7 +198,7 @@ def test_objective_is_finite_everywhere_in_the_search_box(name):
     points = [problem.lower, problem.upper, problem.default_x()]
     points += [rng.uniform(problem.lower, problem.upper) for _ in range(20)]
     for x in points:
-        loss = problem.objective(x)
+        loss = problem.solve(x).loss
         assert np.isfinite(loss) and loss >= 0, (name, x)
 
 
@@ -247,7 +247,7 @@ def test_global_stage_finds_what_a_local_polish_from_the_default_start_misses():
 def test_large_data_search_globally_on_a_subsample_and_polish_on_all(monkeypatch):
     """Above GLOBAL_SAMPLES samples the global stage scouts a seeded subsample; the
     polish then uses every sample, so the answer is that of the full data."""
-    import brdffit.fitting.core as fitting
+    import brdffit.fitting.engine as fitting
 
     monkeypatch.setattr(fitting, "GLOBAL_SAMPLES", 400)
     truth = {"kd": [0.2, 0.3], "ks": [1.0, 2.0], "n": 80.0}
