@@ -24,7 +24,7 @@ are those the fit solves (``model.coefficients``): for every model but
 ``rd_eff = rd (1 - rs)`` and ``rs``, and the prior is uniform on their box
 ``rd_eff >= 0``, ``0 <= rs <= 1``.
 
-The fit's sample weights (``fit_result.options["weights"]``, recorded by
+The fit's sample weights (``fit_result.weights``, kept by
 :func:`brdffit.fit`) weight the likelihood as they weighted the loss, scaled to mean 1 over the
 samples whose weight is not zero (a sample of weight 0 leaves the likelihood).
 The posterior of an ``energy_conserving`` fit is restricted as the fit was, to
@@ -226,7 +226,7 @@ def sample_posterior(
 
 def _target(data, fit_result, noise):
     """The fit's problem rebuilt on the data, and the log-posterior over it."""
-    weights = fit_result.options.get("weights")
+    weights = fit_result.weights
     problem = Problem(
         data,
         fit_result.model,

@@ -401,7 +401,7 @@ def test_fit_weights_carry_into_the_likelihood():
     data = dataset("ward", {"kd": 0.3, "ks": 0.2, "alpha": 0.15}, wi, wo, 0.01, rng)
     half = np.arange(data.n) < data.n // 2
     weighted = fit(data, "ward", weights=half.astype(float))
-    assert weighted.options["weights"].tolist() == half.astype(float).tolist()
+    assert weighted.weights.tolist() == half.astype(float).tolist()
     alone = fit(data.subset(np.flatnonzero(half)), "ward")
     both = fit(data, "ward")
     first = data.subset(np.flatnonzero(half))
