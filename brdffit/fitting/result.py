@@ -16,10 +16,6 @@ from .losses import LOSSES, LossContext
 __all__ = ["FitResult", "metrics_of"]
 
 
-#: Kept until posterior/result.py imports :func:`brdffit.jsonable.jsonable` itself.
-_jsonable = jsonable
-
-
 @dataclass(frozen=True)
 class FitResult:
     """The result of :func:`brdffit.fit`.
