@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import struct
+import tempfile
 
 import numpy as np
 import pytest
@@ -229,3 +231,32 @@ def test_fit_file_options_errors_are_under_options(client):
             data={"model": "ward", "options": '{"loss": "l3"}'},
         )
     assert_error(answer, 422, "options.loss")
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "words"),
+    [
+        ("mine.npz", b"PK\x03\x04garbage", "mine.npz is not a readable .npz"),
+        ("m.binary", struct.pack("<3i", 90, 90, 90) + bytes(16), "m.binary: the dimensions"),
+        ("t.astm", b"\xff\xfe\x00bad", "t.astm is not a UTF-8 text file"),
+    ],
+    ids=["npz", "merl", "astm"],
+)
+@pytest.mark.parametrize("route", ["/fit/file", "/jobs/file"])
+def test_uploads_are_read_in_memory_and_errors_name_the_upload(
+    client, monkeypatch, route, name, content, words
+):
+    """No temporary file: the bytes go to brdffit.read named by the upload's file name,
+    so a fault of the file is under the form field ``file`` and names the client's
+    file, never a server path (the old code wrote a temporary file and rewrote it)."""
+
+    def no_temporary_files(*args, **kwargs):
+        raise AssertionError("an upload was written to a temporary file")
+
+    monkeypatch.setattr(tempfile, "mkstemp", no_temporary_files)
+    answer = client.post(route, files={"file": (name, content)}, data={"model": "ward"})
+    body = assert_error(answer, 422, "file", words)
+    assert "/tmp" not in body["message"] and tempfile.gettempdir() not in body["message"]
+    with open(WARD_CSV, "rb") as f:
+        good = client.post(route, files={"file": ("ward.csv", f)}, data={"model": "ward"})
+    assert good.status_code in (200, 202), good.text

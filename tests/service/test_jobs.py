@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import io
 import sqlite3
 import time
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 from service_helpers import WARD_CSV, assert_error, example_measurements, wait_for, without_seconds
@@ -159,3 +161,24 @@ def test_a_store_from_before_data_notes_gains_them(tmp_path):
     assert store.get("old")["data_notes"] == []
     new = store.create("lambert", {}, b"\x00", ["request: 1 of 3 values are negative"])
     assert store.get(new["id"])["data_notes"] == ["request: 1 of 3 values are negative"]
+
+
+def test_a_50000_sample_upload_is_accepted_as_a_job(tmp_path):
+    """Jobs are checked without fitting (brdffit.check_fit): the old check, a fit of one
+    evaluation, refused large files, having spent its budget before the fit began."""
+    rng = np.random.default_rng(7)
+    n = 50_000
+    angles = (rng.uniform(0, 80, n), rng.uniform(0, 360, n), rng.uniform(0, 80, n),
+              rng.uniform(0, 360, n))  # fmt: skip
+    params = {"kd": 0.3, "ks": 0.1, "alpha": 0.2}
+    data = brdffit.synthesize("ward", params, geometry=angles, noise=0.01, seed=3)
+    upload = io.BytesIO()
+    brdffit.write(upload, data, format="npz")
+    settings = Settings(store_path=tmp_path / "jobs.sqlite3", workers=1, fit_workers=0,
+                        max_body_bytes=64 * 2**20)  # fmt: skip
+    with TestClient(create_app(settings)) as c:
+        answer = c.post(
+            "/jobs/file", files={"file": ("big.npz", upload.getvalue())}, data={"model": "ward"}
+        )
+        assert answer.status_code == 202, answer.text
+        assert c.delete(f"/jobs/{answer.json()['id']}").status_code == 204
