@@ -7,17 +7,16 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
     PYTHONUNBUFFERED=1 \
     PIP_NO_CACHE_DIR=1 \
     PIP_DISABLE_PIP_VERSION_CHECK=1 \
-    MPLBACKEND=Agg \
-    MPLCONFIGDIR=/tmp/matplotlib \
     BRDFFIT_STORE_PATH=/data/jobs.sqlite3 \
     BRDFFIT_WORKERS=2
 
 WORKDIR /app
-# The package and its dependencies (all of them ship wheels: nothing to compile).
+# The package with the 'service' extra (FastAPI, uvicorn; no plotting or colour
+# packages: the service uses neither). Every dependency ships wheels: nothing to compile.
 COPY pyproject.toml README.md ./
 COPY brdffit ./brdffit
 COPY service ./service
-RUN pip install . \
+RUN pip install '.[service]' \
     && useradd --create-home --uid 10001 brdffit \
     && mkdir -p /data \
     && chown brdffit:brdffit /data
