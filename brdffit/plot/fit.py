@@ -14,12 +14,16 @@
   ``theta_h``: in units of sigma when the data give it, else relative to the
   fitted value.
 
-matplotlib runs with the Agg backend (no display needed).
+The figure is drawn on a :class:`matplotlib.figure.Figure` with the Agg canvas,
+never through ``pyplot``: the caller's backend is left as it is (a notebook keeps
+its inline plots), no window opens and no global figure is kept.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
 from ..data.geometry import directions_from_angles
 from ..models import get_model
@@ -189,11 +193,6 @@ def plot_fit(data, result, path, title: str | None = None) -> str:
     title : str, optional
         What the data are called in the title (default: their ``source``).
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     model = get_model(result.model)
     params = dict(result.params)
     pred = np.asarray(model.evaluate(data.wi, data.wo, params), dtype=float)
@@ -202,9 +201,10 @@ def plot_fit(data, result, path, title: str | None = None) -> str:
     groups = _pick(plane_of_incidence(data), MAX_PANELS)
     floor = _log_floor(data.values[:, shown])
     if groups:
-        fig, residual_ax = _plane_figure(plt, data, model, params, groups, shown, colours, floor)
+        fig, residual_ax = _plane_figure(data, model, params, groups, shown, colours, floor)
     else:
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), layout="constrained")
+        fig = Figure(figsize=(11, 4.8), layout="constrained")
+        axes = fig.subplots(1, 2)
         _scatter_panel(axes[0], data, pred, shown, colours, floor)
         axes[0].legend(fontsize=8, loc="upper left")
         residual_ax = axes[1]
@@ -217,18 +217,18 @@ def plot_fit(data, result, path, title: str | None = None) -> str:
         x=0.01,
         ha="left",
     )
+    FigureCanvasAgg(fig)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return str(path)
 
 
-def _plane_figure(plt, data, model, params, groups, shown, colours, floor):
+def _plane_figure(data, model, params, groups, shown, colours, floor):
     """Panels of the planes of incidence above a wide residual panel."""
     from matplotlib.lines import Line2D
 
     cols = min(len(groups), 3)
     rows = -(-len(groups) // cols)
-    fig = plt.figure(figsize=(max(4.6 * cols, 9.5), 3.6 * rows + 3.4), layout="constrained")
+    fig = Figure(figsize=(max(4.6 * cols, 9.5), 3.6 * rows + 3.4), layout="constrained")
     grid = fig.add_gridspec(rows + 1, cols, height_ratios=[1] * rows + [0.85])
     axes = [fig.add_subplot(grid[i // cols, i % cols]) for i in range(len(groups))]
     for ax, group in zip(axes, groups):
