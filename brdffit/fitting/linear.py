@@ -1,25 +1,38 @@
-"""Bounded linear least squares for the linear coefficients (variable projection).
+"""Bounded, linearly constrained least squares for the linear coefficients
+(variable projection).
 
 For given shape parameters a model is ``offset + A x`` with a design matrix
-``A`` of a few columns (K <= 4 for single models) and coefficients ``x`` per
-colour channel. The fitting engine needs, thousands of times per fit, the
-weighted least-squares solution of
+``A`` of a few columns (K <= 4 for single models, more for sums of lobes) and
+coefficients ``x`` per colour channel. The fitting engine needs, thousands of
+times per fit, the weighted least-squares solution of
 
-    minimise  sum_m w_mc (y_mc - offset_m - A_m x_c)^2   subject to  lo <= x_c <= hi
+    minimise  sum_m w_mc (y_mc - offset_m - A_m x_c)^2
+    subject to  lo <= x_c <= hi  and  R x_c <= r_c
 
-for every channel c at once. With K this small the exact solution is found by
-enumerating the active sets: every coefficient is either free, at its lower
-bound or at its upper bound; each of the 3^K combinations is a small linear
-system solved for all channels in one batched call, and the feasible one with
-the least residual is the optimum (the problem is convex, so the best feasible
-stationary point of a face is the global minimum). Everything is expressed
-through the Gram matrix ``A^T W A`` and ``A^T W y``, so the residual sum of
+for every channel c at once, where the rows ``R`` are the model's own
+inequalities (Ashikhmin-Shirley's triangle) and, in an energy-conserving fit,
+the directional albedo at a grid of incidence angles. Everything is expressed
+through the Gram matrix ``G = A^T W A`` and ``A^T W y``, so the residual sum of
 squares comes out without forming residuals (its absolute error is the
-round-off of ``y^T W y``, about 1e-15 of it: far below the noise of any
-data). Larger K falls back to :func:`scipy.optimize.lsq_linear` per channel.
-Further linear inequality rows (Ashikhmin-Shirley's triangle, energy
-conservation) are handled by enumerating active sets of rows and solving the
-KKT system of each.
+round-off of ``y^T W y``, about 1e-15 of it: far below the noise of any data).
+
+Three stages, each only for the channels the previous one left:
+
+1. the unconstrained solution, when it obeys every bound and row (the usual
+   case near a good fit);
+2. for K <= ``MAX_ENUMERATED`` and the bounds alone, enumeration of the 3^K
+   active sets (each coefficient free, at its lower or at its upper bound),
+   all solved for all channels in one batched call; the problem is convex, so
+   the best feasible stationary point of a face is the global minimum;
+3. otherwise (more coefficients, or rows that the box solution breaks) the
+   exact solution by Lawson and Hanson's reduction of least squares with
+   linear inequality constraints (LSI) to a least-distance problem (LDP),
+   which is the dual of a non-negative least-squares problem
+   (:func:`scipy.optimize.nnls`): C. L. Lawson and R. J. Hanson, *Solving
+   Least Squares Problems* (Prentice-Hall 1974; SIAM 1995), chapter 23,
+   sections 3-5. NNLS is an active-set method with finite termination,
+   typically a few iterations per active constraint; bounds and rows of any
+   number are handled alike.
 """
 
 from __future__ import annotations
@@ -28,12 +41,17 @@ import itertools
 from functools import cache, lru_cache
 
 import numpy as np
-from scipy.optimize import lsq_linear
+from scipy.optimize import nnls
 
 __all__ = ["Normal", "normal_equations", "solve_bounded"]
 
-#: Above this many coefficients enumeration (3^K systems) is slower than BVLS.
+#: Up to this many coefficients the bounds alone are solved by enumerating the
+#: 3^K active sets (batched over channels: faster than NNLS per channel).
 MAX_ENUMERATED = 5
+#: Relative ridge on a Gram whose columns are collinear, so its Cholesky factor exists.
+RIDGE = 1e-12
+#: Relative tolerance on the bounds and rows of a solution.
+FEASIBLE_TOL = 1e-9
 
 
 class Normal:
@@ -93,10 +111,18 @@ def _upper_triangle(k: int) -> tuple[np.ndarray, np.ndarray]:
     return np.triu_indices(k)
 
 
-@cache
-def _states(k: int) -> np.ndarray:
-    """All 3^K assignments: 0 = at lower bound, 1 = free, 2 = at upper bound."""
-    return np.array(list(itertools.product((0, 1, 2), repeat=k)), dtype=np.int8)
+@lru_cache(maxsize=64)
+def _box_states(lower: tuple, upper: tuple):
+    """The 3^K active sets of the bounds (0 = at the lower bound, 1 = free, 2 = at
+    the upper bound; none at an infinite one) as masks: free (S, K), the fixed
+    values (S, K), free x free (S, 1, K, K), and the identity. Made once per bounds."""
+    k = len(lower)
+    states = np.array(list(itertools.product((0, 1, 2), repeat=k)), dtype=np.int8)
+    states = states[~((states == 2) & np.isinf(upper)).any(axis=1)]
+    free = states == 1
+    fixed_val = np.where(states == 0, lower, np.where(states == 2, upper, 0.0))
+    fmask = free[:, None, :, None] & free[:, None, None, :]
+    return free, fixed_val, fmask, np.eye(k)
 
 
 def _objective(normal: Normal, x: np.ndarray) -> np.ndarray:
@@ -112,7 +138,7 @@ def _objective(normal: Normal, x: np.ndarray) -> np.ndarray:
 def solve_bounded(
     normal: Normal, lower: np.ndarray, upper: np.ndarray, constraints=None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Exact bounded least squares for every channel.
+    """Exact bounded, linearly constrained least squares for every channel.
 
     Parameters
     ----------
@@ -126,30 +152,61 @@ def solve_bounded(
     Returns
     -------
     x : (C, K) coefficients; rss : (C,) weighted residual sums of squares
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When no coefficients satisfy the bounds and rows of some channel.
     """
-    k = normal.rhs.shape[1]
-    if k > MAX_ENUMERATED:
-        return _solve_bvls(normal, lower, upper)
-    # Fast path: the unconstrained solution, when it is inside the bounds for
-    # every channel (the usual case near a good fit), is the answer.
+    c, k = normal.rhs.shape
+    rows = _per_channel(constraints, c)
+    x = _unconstrained(normal)
+    todo = ~_feasible(x, lower, upper, rows)  # NaN (a singular Gram) fails every bound
+    every = todo.all()
+    if todo.any() and k <= MAX_ENUMERATED:
+        x_box, rss_box = _enumerate(normal if every else _channels(normal, todo), lower, upper)
+        ok = np.isfinite(rss_box)
+        if rows is None and every and ok.all():
+            return x_box, rss_box  # the usual bounded case: nothing else to do
+        x[todo] = x_box
+        # Channels whose box solution is degenerate or breaks a row go on.
+        if rows is not None:
+            ok[ok] = _feasible(x_box[ok], lower, upper, _subset(rows, todo, ok), 1e-12)
+        todo[todo] = ~ok
+    if todo.any():
+        x[todo] = _solve_lsi(_channels(normal, todo), lower, upper, _subset(rows, todo))
+    return x, np.maximum(_objective(normal, x), 0.0)
+
+
+def _unconstrained(normal: Normal) -> np.ndarray:
+    """The unconstrained solution per channel (NaN where the Gram is singular)."""
     try:
-        x = np.linalg.solve(normal.gram, normal.rhs[..., None])[..., 0]
+        return np.linalg.solve(normal.gram, normal.rhs[..., None])[..., 0]
     except np.linalg.LinAlgError:
-        x = None
-    if x is not None and np.isfinite(x).all() and _feasible(x, lower, upper, constraints).all():
-        return x, np.maximum(_objective(normal, x), 0.0)
-    x, rss = _enumerate(normal, lower, upper)
+        return np.full(normal.rhs.shape, np.nan)
+
+
+def _channels(normal: Normal, which: np.ndarray) -> Normal:
+    return Normal(normal.gram[which], normal.rhs[which], normal.yy[which])
+
+
+def _per_channel(constraints, c: int):
+    """Constraints as ``(A (R, K), b (C, R))``, or None."""
     if constraints is None:
-        return x, rss
-    # Only the channels whose box solution breaks a further row need the general
-    # (slower) enumeration.
-    bad = ~_feasible(x, lower, upper, constraints, tol=1e-12)
-    if bad.any():
-        a, b = constraints
-        sub = Normal(normal.gram[bad], normal.rhs[bad], normal.yy[bad])
-        sub_b = b[bad] if np.ndim(b) == 2 else b
-        x[bad], rss[bad] = _enumerate_general(sub, lower, upper, (a, sub_b))
-    return x, rss
+        return None
+    a, b = constraints
+    a = np.asarray(a, dtype=float)
+    return a, np.broadcast_to(np.asarray(b, dtype=float), (c, len(a)))
+
+
+def _subset(rows, *masks):
+    """The constraints of some channels (boolean masks applied in turn)."""
+    if rows is None:
+        return None
+    a, b = rows
+    for mask in masks:
+        b = b[mask]
+    return a, b
 
 
 def _feasible(x, lower, upper, constraints, tol=0.0) -> np.ndarray:
@@ -162,111 +219,128 @@ def _feasible(x, lower, upper, constraints, tol=0.0) -> np.ndarray:
     return ok
 
 
-@lru_cache(maxsize=64)
-def _active_sets(rows_bytes: bytes, shape: tuple) -> tuple:
-    """Every set of at most K linearly independent constraint rows."""
-    rows = np.frombuffer(rows_bytes).reshape(shape)
-    k = shape[1]
-    out = []
-    for size in range(k + 1):
-        for active in itertools.combinations(range(shape[0]), size):
-            if size == 0 or np.linalg.matrix_rank(rows[list(active)]) == size:
-                out.append(active)
-    return tuple(out)
-
-
-def _enumerate_general(normal: Normal, lower, upper, constraints):
-    """Active-set enumeration with general inequality rows: for every set of at most
-    K active rows (bounds written as rows too), the KKT system of the equality-
-    constrained problem is solved for all channels; the best feasible point is the
-    optimum of the convex problem."""
-    c, k = normal.rhs.shape
-    a_extra, b_extra = constraints
-    b_extra = np.broadcast_to(np.asarray(b_extra, dtype=float), (c, len(a_extra)))
-    rows, rhs = [], []
-    for j in range(k):
-        e = np.zeros(k)
-        e[j] = 1.0
-        rows.append(-e)
-        rhs.append(-lower[j])
-        if np.isfinite(upper[j]):
-            rows.append(e)
-            rhs.append(upper[j])
-    rows += list(np.asarray(a_extra, dtype=float))
-    rows = np.array(rows)
-    rhs = np.concatenate(
-        [np.broadcast_to(np.array(rhs, dtype=float), (c, len(rhs))), b_extra], axis=1
-    )
-    best_x = np.zeros((c, k))
-    best_rss = np.full(c, np.inf)
-    for active in _active_sets(rows.tobytes(), rows.shape):
-        size = len(active)
-        a_s = rows[list(active)]
-        kkt = np.zeros((c, k + size, k + size))
-        kkt[:, :k, :k] = normal.gram
-        kkt[:, :k, k:] = a_s.T
-        kkt[:, k:, :k] = a_s
-        vec = np.concatenate([normal.rhs, rhs[:, list(active)]], axis=1)
-        try:
-            sol = np.linalg.solve(kkt, vec[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            continue
-        x = sol[:, :k]
-        ok = _feasible(x, lower, upper, constraints, tol=1e-10) & np.isfinite(x).all(axis=1)
-        rss = np.where(ok, _objective(normal, x), np.inf)
-        better = rss < best_rss
-        best_x[better], best_rss[better] = x[better], rss[better]
-    if not np.isfinite(best_rss).all():
-        raise np.linalg.LinAlgError("no feasible point found for the linear coefficients")
-    return np.clip(best_x, lower, upper), np.maximum(best_rss, 0.0)
-
-
 def _enumerate(normal: Normal, lower: np.ndarray, upper: np.ndarray):
-    """Try every active set (see the module docstring) for every channel at once."""
-    c, k = normal.rhs.shape
-    states = _states(k)
-    if np.isinf(upper).any():
-        states = states[~((states == 2) & np.isinf(upper)).any(axis=1)]
-    free = states == 1
-    fixed_val = np.where(states == 0, lower, np.where(states == 2, upper, 0.0))  # (S, K)
+    """Try every active set of the bounds (see the module docstring) for every
+    channel at once: the coefficients (C, K) and residual sums of squares (C,),
+    inf for a channel without a feasible candidate."""
+    c = normal.rhs.shape[0]
+    free, fixed_val, fmask, eye = _box_states(tuple(lower), tuple(upper))
+    g = normal.gram[None, :, :, :]  # (1, C, K, K)
     # Reduced system per state: G_ff x_f = b_f - G_fc x_c; solved with a masked
     # matrix (identity on the non-free rows) so that every state is one batch.
-    eye = np.eye(k)
-    g = normal.gram[None, :, :, :]  # (1, C, K, K)
-    fmask = free[:, None, :, None] & free[:, None, None, :]
     a = np.where(fmask, g, eye)  # (S, C, K, K)
     b = normal.rhs[None] - np.einsum("ckl,sl->sck", normal.gram, fixed_val)
     b = np.where(free[:, None, :], b, fixed_val[:, None, :])
     # Regularise nearly singular Grams (collinear columns) by a tiny ridge scaled
     # to the Gram's size, so that solve never fails; the feasible check below
     # still picks the best exact candidate.
-    scale = np.maximum(np.abs(np.diagonal(normal.gram, axis1=1, axis2=2)).max(axis=1), 1e-300)
-    a = a + (1e-12 * scale)[None, :, None, None] * eye * fmask
+    a = a + (RIDGE * _scale(normal.gram))[None, :, None, None] * (eye * fmask)
     x = np.linalg.solve(a, b[..., None])[..., 0]  # (S, C, K)
     tol = 1e-12 * np.maximum(1.0, np.abs(x))
     feasible = ((x >= lower - tol) & (x <= upper + tol)).all(axis=2)  # (S, C)
-    rss = _objective(normal, x)
-    rss = np.where(feasible, rss, np.inf)
+    rss = np.where(feasible, _objective(normal, x), np.inf)
     best = np.argmin(rss, axis=0)  # (C,)
     chan = np.arange(c)
-    x_best = np.clip(x[best, chan], lower, upper)
-    rss_best = rss[best, chan]
-    if not np.isfinite(rss_best).all():  # numerically degenerate: fall back
-        return _solve_bvls(normal, lower, upper)
-    return x_best, np.maximum(rss_best, 0.0)
+    return np.clip(x[best, chan], lower, upper), np.maximum(rss[best, chan], 0.0)
 
 
-def _solve_bvls(normal: Normal, lower: np.ndarray, upper: np.ndarray):
-    """Bounded least squares per channel through a Cholesky factor of the Gram."""
+def _scale(gram: np.ndarray) -> np.ndarray:
+    """The largest diagonal entry of each Gram (C,), at least 1e-300."""
+    return np.maximum(np.abs(np.diagonal(gram, axis1=-2, axis2=-1)).max(axis=-1), 1e-300)
+
+
+def _inequalities(lower, upper, rows, c: int) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds and rows as one system ``D x <= d``: D (R, K), d (C, R)."""
+    k = len(lower)
+    finite = np.isfinite(upper)
+    mats = [-np.eye(k), np.eye(k)[finite]]
+    limits = [np.broadcast_to(-lower, (c, k)), np.broadcast_to(upper[finite], (c, finite.sum()))]
+    if rows is not None:
+        mats.append(rows[0])
+        limits.append(rows[1])
+    return np.vstack(mats), np.concatenate(limits, axis=1)
+
+
+def _solve_lsi(normal: Normal, lower, upper, rows) -> np.ndarray:
+    """Least squares under ``D x <= d`` per channel by Lawson and Hanson's LSI ->
+    LDP -> NNLS reduction (Solving Least Squares Problems, ch. 23).
+
+    With the Cholesky factor ``G = L L^T`` and the unconstrained solution ``x0``,
+    the objective is ``|z|^2 + const`` for ``z = L^T (x - x0)``, and the rows
+    become ``-(D L^-T) z >= D x0 - d``: a least-distance problem (LDP), whose
+    solution is read off the residual of one NNLS problem (their algorithm
+    23.27). A relative ridge of ``RIDGE`` makes ``L`` exist for collinear columns.
+    """
     c, k = normal.rhs.shape
+    mat, limits = _inequalities(lower, upper, rows, c)
+    gram = normal.gram + (RIDGE * _scale(normal.gram))[:, None, None] * np.eye(k)
+    if not (np.isfinite(gram).all() and np.isfinite(normal.rhs).all()):
+        raise np.linalg.LinAlgError("the design of the linear coefficients is not finite")
+    chol = np.linalg.cholesky(gram)
+    x0 = np.linalg.solve(gram, normal.rhs[..., None])[..., 0]
+    chol_inv = np.linalg.inv(chol)  # L^-1, so that L^-T = chol_inv^T
     x = np.empty((c, k))
     for ch in range(c):
-        g = normal.gram[ch] + 1e-12 * max(np.abs(np.diag(normal.gram[ch])).max(), 1e-300) * np.eye(
-            k
-        )
-        r = np.linalg.cholesky(g).T  # G = R^T R, so ||R x - R^-T b||^2 = x^T G x - 2 b^T x + const
-        target = np.linalg.solve(r.T, normal.rhs[ch])
-        x[ch] = np.clip(
-            lsq_linear(r, target, bounds=(lower, upper), method="bvls").x, lower, upper
-        )
-    return x, np.maximum(_objective(normal, x), 0.0)
+        z, active = _least_distance(-mat @ chol_inv[ch].T, mat @ x0[ch] - limits[ch])
+        x_ldp = np.clip(x0[ch] + chol_inv[ch].T @ z, lower, upper)
+        x[ch] = _polish(x_ldp, gram[ch], normal.rhs[ch], (mat, limits[ch], active))
+    return np.clip(x, lower, upper)
+
+
+def _polish(x_ldp, gram, rhs, system) -> np.ndarray:
+    """The LDP point, or the exact optimum on its active rows when that is feasible
+    and no worse.
+
+    Where columns are nearly collinear, ``L^-T`` stretches the poorly determined
+    directions and the LDP point can miss a row by 1e-5 there; the active rows
+    (the NNLS multipliers above 0) are then right, and the equality-constrained
+    least squares on them, solved in the coefficients' own space, is exact.
+    """
+    mat, limits, active = system
+    k = len(x_ldp)
+    rows = mat[active]
+    kkt = np.block([[gram, rows.T], [rows, np.zeros((len(rows), len(rows)))]])
+    sol = np.linalg.lstsq(kkt, np.concatenate([rhs, limits[active]]), rcond=None)[0]
+    candidates = [x_ldp, sol[:k]]
+    slack = [mat @ x - limits for x in candidates]
+    tol = FEASIBLE_TOL * np.maximum(1.0, np.abs(limits))
+    value = [x @ gram @ x - 2 * rhs @ x for x in candidates]
+    ok = [bool(np.isfinite(x).all() and (s <= tol).all()) for x, s in zip(candidates, slack)]
+    if not any(ok):
+        raise np.linalg.LinAlgError("no coefficients satisfy the bounds and constraints")
+    if ok[1] and (not ok[0] or value[1] <= value[0]):
+        return sol[:k]
+    return x_ldp
+
+
+def _least_distance(h: np.ndarray, viol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The shortest ``z`` with ``h z >= viol`` (LDP), by Lawson and Hanson's
+    algorithm 23.27: NNLS of ``[h^T; viol^T] u ~ e_(K+1)``; the problem is
+    infeasible when the residual ``r`` vanishes, else ``z = -r[:K] / r[K]``.
+    Returns ``z`` and which rows are active (``u > 0``).
+
+    Each row is scaled to unit length and the right side to a largest entry of
+    1 first: the set of solutions does not change, and NNLS sees numbers near 1.
+    """
+    k = h.shape[1]
+    norms = np.linalg.norm(h, axis=1)
+    null = norms <= 1e-300
+    active = np.zeros(len(h), dtype=bool)
+    if (viol[null] > 0).any():
+        raise np.linalg.LinAlgError("a constraint row without coefficients is broken")
+    h, viol = h[~null] / norms[~null, None], viol[~null] / norms[~null]
+    top = viol.max(initial=0.0)
+    if top <= 0:
+        return np.zeros(k), active  # x0 obeys every row
+    e = np.vstack([h.T, viol / top])
+    f = np.zeros(k + 1)
+    f[k] = 1.0
+    try:
+        u, _ = nnls(e, f, maxiter=10 * e.shape[1] + 50)
+    except RuntimeError as exc:  # iteration limit: report as no solution
+        raise np.linalg.LinAlgError(str(exc)) from None
+    r = e @ u - f
+    if not -r[k] > 0:
+        raise np.linalg.LinAlgError("no coefficients satisfy the bounds and constraints")
+    active[~null] = u > 0
+    return -r[:k] / r[k] * top, active
