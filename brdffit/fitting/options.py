@@ -127,9 +127,10 @@ class FitOptions:
         for name in ("energy_conserving", "uncertainty"):
             if not isinstance(getattr(self, name), bool):
                 raise FitError(f"{name}={getattr(self, name)!r} must be True or False", name)
-        if isinstance(self.free, str) or not all(isinstance(n, str) for n in self.free):
+        free = self.free
+        if not isinstance(free, (list, tuple)) or not all(isinstance(n, str) for n in free):
             raise FitError("free must be a list of parameter names", "free")
-        for name in ("start", "posterior_options"):
+        for name in ("fixed", "start", "posterior_options"):
             if getattr(self, name) is not None and not isinstance(getattr(self, name), Mapping):
                 raise FitError(f"{name} must be a mapping of names to values", name)
         if self.progress is not None and not callable(self.progress):
