@@ -1,8 +1,22 @@
-"""brdffit: fit analytic BRDF models to measured reflectance, with uncertainties."""
+"""brdffit: fit analytic BRDF models to measured reflectance, with uncertainties.
+
+The public API: read and write measurements (a path, bytes or a file object),
+get a model, fit it (with its posterior), compare models, synthesize data. The
+core needs numpy, scipy, nlopt and emcee only; plots, the web service and
+colour conversion are extras (:class:`MissingExtraError` names the one missing).
+"""
 
 from .data.geometry import Geometry
 from .data.measurements import Measurements
-from .errors import BrdfFitError, DataError, FitError, FormatError, ModelError, ParameterError
+from .errors import (
+    BrdfFitError,
+    DataError,
+    FitError,
+    FormatError,
+    MissingExtraError,
+    ModelError,
+    ParameterError,
+)
 from .fitting.compare import compare
 from .fitting.core import check_fit, fit
 from .fitting.engine import StopFit
@@ -19,6 +33,7 @@ __all__ = [
     "FormatError",
     "Geometry",
     "Measurements",
+    "MissingExtraError",
     "ModelError",
     "ParameterError",
     "StopFit",
