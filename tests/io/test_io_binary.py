@@ -15,6 +15,7 @@ import tracemalloc
 import numpy as np
 import pytest
 from helpers import hemisphere_pairs, shared_file
+from io_helpers import MAGIC, REFLECTION, TRANSMISSION, pack_block
 
 from brdffit import DataError, FormatError, get_model
 from brdffit.data.measurements import Measurements
@@ -333,15 +334,6 @@ def test_reading_a_full_merl_file_stays_well_under_a_gigabyte(ones_file):
 
 
 # -------------------------------------------------------------------------- MBSDF
-MAGIC = b"NVIDIA ARC MBSDF V1\n"
-REFLECTION = b"MBSDF_DATA_REFLECTION=\n"
-TRANSMISSION = b"MBSDF_DATA_TRANSMISSION=\n"
-
-
-def pack_block(kind, n_theta, n_phi, values):
-    return struct.pack("<3I", kind, n_theta, n_phi) + struct.pack(f"<{len(values)}f", *values)
-
-
 def test_real_mbsdf_file_has_its_documented_layout():
     path = shared_file("nvidia", "carpaint_red.mbsdf")
     raw = path.read_bytes()

@@ -13,41 +13,16 @@ stored incident angles), scalar.
 from __future__ import annotations
 
 import math
-import struct
 
 import numpy as np
 import pytest
 from helpers import shared_file
+from io_helpers import pack_tensor, tiny_rgl
 
 import brdffit
 from brdffit import FormatError
 from brdffit.io import detect_format
 from brdffit.io.rgl import read_rgl_arrays, read_tensor_file, warp_sample
-
-CODES = {"u1": 1, "i1": 2, "<u2": 3, "<i2": 4, "<u4": 5, "<i4": 6, "<u8": 7, "<i8": 8}
-CODES.update({"<f2": 9, "<f4": 10, "<f8": 11})
-
-
-def pack_tensor(fields: dict, align: int = 8, version=(1, 0), magic=b"tensor_file\x00") -> bytes:
-    """A tensor file (layout of Mitsuba's TensorFile / RGL's write_tensor)."""
-    arrays = {k: np.ascontiguousarray(v) for k, v in fields.items()}
-    header = magic + struct.pack("<BBI", *version, len(arrays))
-    entries = []
-    for name, a in arrays.items():
-        label = name.encode()
-        entries.append((struct.pack("<H", len(label)) + label, a))
-    size = len(header) + sum(len(e) + 2 + 1 + 8 + 8 * a.ndim for e, a in entries)
-    body, blobs, pos = b"", b"", size
-    for label, a in entries:
-        pos = -(-pos // align) * align
-        code = CODES[a.dtype.str.replace("|", "").replace("=", "<")]
-        body += label + struct.pack(f"<HBQ{a.ndim}Q", a.ndim, code, pos, *a.shape)
-        blobs += (
-            b"\x00" * (pos - size - len(blobs)) + a.astype(a.dtype.newbyteorder("<")).tobytes()
-        )
-        pos += a.nbytes
-    return header + body + blobs
-
 
 FIELDS = {
     "a": np.arange(6, dtype="<f4").reshape(2, 3) / 7,
@@ -97,26 +72,9 @@ def test_broken_tensor_files_name_the_byte(tmp_path, damage, pattern):
     assert str(path) in str(info.value)
 
 
-def _tiny_rgl(**changes) -> dict:
-    """A small RGL-shaped file: 2 incident angles, 5 x 4 vndf grid, 3 x 3 rgb grid."""
-    rng = np.random.default_rng(0)
-    fields = {
-        "description": np.frombuffer(b"tiny", dtype="u1"),
-        "phi_i": np.zeros(1, "<f4"),
-        "theta_i": np.array([0.0, 0.5], "<f4"),
-        "sigma": np.ones((2, 4), "<f4"),
-        "ndf": np.full((2, 4), 1 / math.pi, "<f4"),
-        "vndf": rng.uniform(0.5, 1, (1, 2, 5, 4)).astype("<f4"),
-        "rgb": rng.uniform(0, 1, (1, 2, 3, 3, 3)).astype("<f4"),
-        "jacobian": np.ones(1, "u1"),
-    }
-    fields.update(changes)
-    return {k: v for k, v in fields.items() if v is not None}
-
-
 def test_a_small_rgl_file_reads_every_pair(tmp_path):
     path = tmp_path / "tiny.bsdf"
-    path.write_bytes(pack_tensor(_tiny_rgl()))
+    path.write_bytes(pack_tensor(tiny_rgl()))
     s = read_rgl_arrays(path)
     assert s.n_stored == 18 and s.description == "tiny"
     assert len(s.wi) + s.n_below_horizon + s.n_incident_below_horizon + s.n_merged == 18
@@ -135,7 +93,7 @@ def test_a_small_rgl_file_reads_every_pair(tmp_path):
 )
 def test_rgl_files_outside_the_supported_kind_are_refused(tmp_path, changes, pattern):
     path = tmp_path / "odd.bsdf"
-    path.write_bytes(pack_tensor(_tiny_rgl(**changes)))
+    path.write_bytes(pack_tensor(tiny_rgl(**changes)))
     with pytest.raises(FormatError, match=pattern):
         read_rgl_arrays(path)
 

@@ -7,10 +7,8 @@ import warnings
 
 import numpy as np
 import pytest
-from test_io_binary import MAGIC as MBSDF_MAGIC
-from test_io_binary import REFLECTION, pack_block
-from test_io_rgl import _tiny_rgl, pack_tensor
-from test_io_text import pbrt_text, rgb_data
+from io_helpers import MAGIC as MBSDF_MAGIC
+from io_helpers import REFLECTION, pack_block, pack_tensor, pbrt_text, rgb_data, tiny_rgl
 
 from brdffit import Measurements, read, write
 from brdffit.errors import FormatError
@@ -43,7 +41,7 @@ def _file(tmp_path, name: str):
     elif name == "mbsdf":
         path.write_bytes(_mbsdf_bytes())
     else:
-        path.write_bytes(pack_tensor(_tiny_rgl()))
+        path.write_bytes(pack_tensor(tiny_rgl()))
     return path
 
 

@@ -8,28 +8,13 @@ import warnings
 import numpy as np
 import pytest
 from helpers import shared_file
+from io_helpers import pbrt_text, rgb_data
 
 from brdffit.data.measurements import Measurements
 from brdffit.errors import DataError, FormatError
 from brdffit.io import FORMATS, detect_format, read, write
 
 CORNELL = ("garnet_red.astm", "krylon_blue.astm", "acryl_blue.brdf")
-
-
-def rgb_data(n=60, seed=0, from_angles=True, sigma=True):
-    rng = np.random.default_rng(seed)
-    ti, to = rng.uniform(0, 89, (2, n))
-    pi_, po = rng.uniform(0, 360, (2, n))
-    values = rng.lognormal(-2, 2, (n, 3))
-    values[0, 1] = -1e-3  # a negative value survives every format
-    s = rng.uniform(1e-4, 1e-2, (n, 3)) if sigma else None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        m = Measurements.from_angles(ti, pi_, to, po, values, ["r", "g", "b"], s,
-                                     source="round trip", units="1/sr")  # fmt: skip
-        if not from_angles:
-            m = Measurements(m.wi, m.wo, m.values, m.channels, m.sigma, m.source, m.units)
-    return m
 
 
 def load(path, **kwargs):
@@ -177,14 +162,6 @@ def test_broken_astm_files_name_the_file_and_the_line(tmp_path):
     path = tmp_path / "deg.astm"
     path.write_text(text)
     assert load(path, angle_unit="degrees").angles()[0][2] == 5.1
-
-
-def pbrt_text() -> str:
-    return (
-        "# num wls\n3\n# wls\n400 550\n700\n# records\n"
-        "0.1 0 0.1 3.14 1 2 3\n"
-        "0.2 0 0.2 3.14 4 5\n6\n"  # a record may span lines
-    )
 
 
 def test_pbrt_reads_records_across_lines_and_broken_files_name_the_line(tmp_path):
