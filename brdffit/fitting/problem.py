@@ -29,16 +29,20 @@ BAD_LOSS = 1e300
 
 
 class Solution:
-    """The result of the objective at one point: shape, coefficients, prediction, loss."""
+    """The result of the objective at one point: shape, coefficients (C, K), loss."""
 
-    __slots__ = ("coefs", "loss", "pred", "shape")
+    __slots__ = ("coefs", "loss", "shape")
 
-    def __init__(self, shape, coefs, pred, loss):
-        self.shape, self.coefs, self.pred, self.loss = shape, coefs, pred, loss
+    def __init__(self, shape, coefs, loss):
+        self.shape, self.coefs, self.loss = shape, coefs, loss
 
 
 class Problem:
     """Bind a model to measurements for fitting.
+
+    A Problem does not change after it is made: :meth:`solve` keeps everything
+    of one call (the shape, its constraint rows) in local variables, so threads
+    may share one Problem.
 
     Parameters
     ----------
@@ -81,7 +85,6 @@ class Problem:
         self._set_targets(weights)
         self._check_size()
         self.energy = None
-        self._constraints = self.coef_constraints
         if energy_conserving:
             from .energy import EnergyRows
 
@@ -131,17 +134,9 @@ class Problem:
         self.free_coefs = [n for n in names if n not in self.fixed]
         self.coef_index = [names.index(n) for n in self.free_coefs]
         self.fixed_index = [names.index(n) for n in self.fixed_coefs]
-        lo, hi = [], []
-        declared = self.model.coefficient_bounds
-        for n in self.free_coefs:
-            if declared is not None:
-                bound = declared[names.index(n)]
-            else:
-                p = self.model._index.get(n)
-                bound = (p.lower, p.upper) if p is not None else (0.0, np.inf)
-            lo.append(max(bound[0], 0.0))
-            hi.append(bound[1])
-        self.coef_lower, self.coef_upper = np.array(lo), np.array(hi)
+        ranges = [self.model.coefficient_ranges[i] for i in self.coef_index]
+        self.coef_lower = np.array([max(lo, 0.0) for lo, _ in ranges], dtype=float)
+        self.coef_upper = np.array([hi for _, hi in ranges], dtype=float)
         self.coef_constraints = None
         if self.model.coefficient_constraints:
             rows = np.array([row for row, _ in self.model.coefficient_constraints], dtype=float)
@@ -205,13 +200,16 @@ class Problem:
     # ----------------------------------------------------------------- search
     @property
     def dim(self) -> int:
+        """The number of free shape parameters: the dimension of the search space."""
         return len(self.free_shape)
 
     @property
     def norm(self) -> float:
+        """What the summed loss is divided by: 1 for sums, the number of values for means."""
         return 1.0 if self.loss.is_sum else float(self.data.values.size)
 
     def x_from_params(self, params: Mapping) -> np.ndarray:
+        """The search-space point (log10 for log-scale parameters) of ``params``."""
         out = []
         for p in self.free_shape:
             v = p.check(params[p.name])
@@ -219,6 +217,7 @@ class Problem:
         return np.array(out)
 
     def shape_from_x(self, x) -> dict:
+        """Shape parameter values (the held ones too) at a search-space point."""
         shape = {}
         for p, v in zip(self.free_shape, x):
             v = 10.0**v if p.log_scale else float(v)
@@ -227,9 +226,6 @@ class Problem:
             if p.name in self.fixed:
                 shape[p.name] = self.fixed[p.name]
         return shape
-
-    def default_x(self) -> np.ndarray:
-        return self.x_from_params({p.name: p.default for p in self.free_shape})
 
     # -------------------------------------------------------------- objective
     def solve(self, x) -> Solution:
@@ -243,13 +239,13 @@ class Problem:
             term = _as_2d(cols[i]) * np.asarray(self.fixed[name], dtype=float)
             offset = term if offset is None else offset + term
         a = _stack([cols[i] for i in self.coef_index], m, c)
-        self._constraints = self._constraints_for(shape)
+        constraints = self._constraints_for(shape)
         try:
-            return self._solve_linear(shape, a, offset, m, c)
+            return self._solve_linear(shape, a, offset, constraints)
         except np.linalg.LinAlgError:
             # No coefficients satisfy the constraints at this shape (energy
             # conservation with a too bright offset): infeasible, never NaN.
-            return Solution(shape, np.zeros((c, len(self.coef_index))), None, BAD_LOSS)
+            return Solution(shape, np.zeros((c, len(self.coef_index))), BAD_LOSS)
 
     def _constraints_for(self, shape):
         """The model's coefficient constraints, plus the albedo rows in energy mode."""
@@ -265,26 +261,26 @@ class Problem:
         )
         return np.vstack([a0, rows]), b
 
-    def _solve_linear(self, shape, a, offset, m, c) -> Solution:
+    def _solve_linear(self, shape, a, offset, constraints) -> Solution:
+        """Coefficients under ``constraints`` (rows of this call) and the loss."""
         if self.loss.linear:
             # For quadratic losses the weighted residual sum of squares of the
             # linear solve is the loss: no prediction needs to be formed.
-            coefs, rss = self._least_squares(a, offset, self.w_lin, self.z_lin)
+            coefs, rss = self._least_squares(a, offset, self.w_lin, self.z_lin, constraints)
             loss = (float(rss.sum()) + self.invalid_loss) / self.norm
-            pred = None
         else:
             w, z = self.w_lin, self.z_lin
             for _ in range(NONLINEAR_PASSES):
-                coefs, _ = self._least_squares(a, offset, w, z)
-                pred = _predict(a, offset, coefs, m, c)
+                coefs, _ = self._least_squares(a, offset, w, z, constraints)
+                pred = _predict(a, offset, coefs, *self.y.shape)
                 w, z = _compact_weights(*self.loss.linearised(pred, self.ctx))
             loss = self.loss.value(pred, self.ctx) * self.loss.norm(self.ctx)
             loss = (loss + self.invalid_loss) / self.norm
         if not np.isfinite(loss):
             loss = BAD_LOSS
-        return Solution(shape, coefs, pred, loss)
+        return Solution(shape, coefs, loss)
 
-    def _least_squares(self, a, offset, w, z):
+    def _least_squares(self, a, offset, w, z, constraints):
         c = z.shape[1]
         target = z if offset is None else z - offset
         reuse = self._weighted if (offset is None and z is self.z_lin) else None
@@ -292,7 +288,7 @@ class Problem:
             _, yy = reuse if reuse is not None else weighted_target(target, w)
             return np.zeros((c, 0)), yy
         normal = normal_equations(a, target, w, reuse)
-        return solve_bounded(normal, self.coef_lower, self.coef_upper, self._constraints)
+        return solve_bounded(normal, self.coef_lower, self.coef_upper, constraints)
 
     def _full(self, col):
         """A column as an (M,) array; constant columns are cached per value."""
@@ -300,12 +296,6 @@ class Problem:
             return col
         key = ("constant_column", float(col))
         return self.geometry.cached(key, lambda: np.full(self.geometry.m, float(col)))
-
-    def prediction(self, sol: Solution) -> np.ndarray:
-        """Model values (M, C) on the valid samples for a solution."""
-        if sol.pred is not None:
-            return sol.pred
-        return self.predict(self.params_of(sol))[self.geometry.valid]
 
     def exact_loss(self, params: Mapping) -> float:
         """The loss at full params from the formed residuals (no normal-equation
@@ -315,9 +305,6 @@ class Problem:
             pred = pred[self.geometry.valid]
         total = self.loss.value(pred, self.ctx) * self.loss.norm(self.ctx) + self.invalid_loss
         return total / self.norm
-
-    def objective(self, x) -> float:
-        return self.solve(x).loss
 
     # ---------------------------------------------------------------- results
     def params_of(self, sol: Solution) -> dict:

@@ -226,6 +226,17 @@ class Model:
     def param_names(self) -> tuple:
         return tuple(p.name for p in self.params)
 
+    @property
+    def coefficient_ranges(self) -> tuple:
+        """Bounds ``(lower, upper)`` of each linear coefficient, in the order of
+        :attr:`coefficients`: the declared :attr:`coefficient_bounds`, else those of
+        the parameter of the same name, else ``(0, inf)``. What the fitting engine
+        bounds the coefficients by."""
+        if self.coefficient_bounds is not None:
+            return tuple(tuple(b) for b in self.coefficient_bounds)
+        found = [self._index.get(n) for n in self.coefficients]
+        return tuple((p.lower, p.upper) if p is not None else (0.0, np.inf) for p in found)
+
     def param(self, name: str) -> Param:
         try:
             return self._index[name]

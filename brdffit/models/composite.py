@@ -74,6 +74,26 @@ def _combined_classification(models) -> Classification:
     )
 
 
+def _coefficient_limits(models, dropped) -> tuple[tuple, tuple | None]:
+    """The sum's coefficient bounds and linear constraints: each component's own
+    (:attr:`Model.coefficient_ranges`, :attr:`Model.coefficient_constraints`),
+    placed at its coefficients' positions in the sum (removed ones are held at 0)."""
+    bounds, rows = [], []
+    start = 0
+    total = sum(len([c for c in m.coefficients if c not in d]) for m, d in zip(models, dropped))
+    for model, drop in zip(models, dropped):
+        kept = [i for i, name in enumerate(model.coefficients) if name not in drop]
+        ranges = model.coefficient_ranges
+        bounds += [ranges[i] for i in kept]
+        for row, bound in model.coefficient_constraints or ():
+            full = [0.0] * total
+            for j, i in enumerate(kept):
+                full[start + j] = float(row[i])
+            rows.append((tuple(full), bound))
+        start += len(kept)
+    return tuple(bounds), (tuple(rows) or None)
+
+
 def sum_of_lobes(models: list[Model]) -> Model:
     """A model that is the sum of ``models`` (see the module docstring)."""
     if len(models) < 2:
@@ -149,6 +169,7 @@ def sum_of_lobes(models: list[Model]) -> Model:
                         out[f"{labels[dst]}.{p.name}"] = values[f"{labels[src]}.{p.name}"]
         return out
 
+    coefficient_bounds, coefficient_constraints = _coefficient_limits(models, dropped)
     doc = "Sum of lobes: " + " + ".join(
         f"{label} ({m.name}: {m.doc.strip().splitlines()[0]})" for label, m in zip(labels, models)
     )
@@ -164,4 +185,6 @@ def sum_of_lobes(models: list[Model]) -> Model:
         from_coefficients=from_coefficients,
         reciprocal=all(m.reciprocal for m in models),
         canonical=canonical,
+        coefficient_bounds=coefficient_bounds,
+        coefficient_constraints=coefficient_constraints,
     )

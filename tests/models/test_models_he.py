@@ -459,8 +459,8 @@ def test_sigma0_and_tau_are_identifiable_from_31_wavelengths():
 
 
 def test_fit_objective_is_finite_over_the_search_box():
-    """What tests/test_fit.py checks for every model, with the wavelength channels he
-    needs: the engine's objective at the corners and random points of the box."""
+    """What tests/fitting/test_problem.py checks for every model, with the wavelength
+    channels he needs: the engine's objective at the corners and random points of the box."""
     channels = ["450nm", "550nm", "650nm"]
     params = {**HE.defaults(), "a_ud": [0.1, 0.2, 0.3], "wavelength": [450.0, 550.0, 650.0]}
     data = synthesize(
@@ -468,10 +468,10 @@ def test_fit_objective_is_finite_over_the_search_box():
     )
     problem = Problem(data, HE)
     rng = np.random.default_rng(11)
-    points = [problem.lower, problem.upper, problem.default_x()]
+    points = [problem.lower, problem.upper, problem.x_from_params(HE.defaults())]
     points += [rng.uniform(problem.lower, problem.upper) for _ in range(20)]
     for x in points:
-        loss = problem.objective(x)
+        loss = problem.solve(x).loss
         assert np.isfinite(loss) and loss >= 0, x
 
 

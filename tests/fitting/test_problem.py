@@ -1,0 +1,101 @@
+"""The variable-projection objective (brdffit.fitting.problem.Problem): finite
+everywhere, safe to share between threads, and bounded by what the models declare."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+from helpers import make_data, random_params
+
+import brdffit.fitting.problem as problem_module
+from brdffit import get_model, synthesize
+from brdffit.fitting.problem import BAD_LOSS, Problem
+from brdffit.models import REGISTRY
+
+
+@pytest.mark.parametrize("name", sorted(REGISTRY))
+def test_objective_is_finite_everywhere_in_the_search_box(name):
+    """nlopt must never see NaN: the objective at the corners and random points of
+    the box is finite for every registered model."""
+    model = get_model(name)
+    rng = np.random.default_rng(11)
+    data = make_data(name, random_params(model, rng), n=200, noise=0.01)
+    problem = Problem(data, model)
+    points = [problem.lower, problem.upper, problem.x_from_params(model.defaults())]
+    points += [rng.uniform(problem.lower, problem.upper) for _ in range(20)]
+    for x in points:
+        loss = problem.solve(x).loss
+        assert np.isfinite(loss) and loss >= 0, (name, x)
+
+
+def bright_phong_problem() -> Problem:
+    """An energy-conserving phong problem on data brighter than albedo 1: its
+    albedo rows bind, and differ with the exponent."""
+    truth = {"kd": [0.8, 0.6, 0.5], "ks": [3.0, 1.0, 2.0], "n": 5.0}
+    data = synthesize("phong", truth, geometry="hemisphere", n=300, seed=4, channels=list("rgb"))
+    return Problem(data, "phong", energy_conserving=True)
+
+
+def test_a_problem_shared_by_two_threads_gives_the_single_threaded_answers(monkeypatch):
+    """Two threads solve the same Problem at different shapes (so with different
+    albedo rows) while a slow step in the middle of each solve lets the other thread
+    run. Every answer equals the one-thread answer at that shape. (A Problem that
+    kept the rows of a call on itself, for a later method to read, solved one
+    thread's shape under the other's rows.)"""
+    problem = bright_phong_problem()
+    points = [problem.x_from_params({"n": 2.0}), problem.x_from_params({"n": 40.0})]
+    expected = [problem.solve(x) for x in points]
+    assert not np.allclose(expected[0].coefs, expected[1].coefs)
+    rows = [problem.energy.rows(problem.shape_from_x(x)) for x in points]
+    assert not np.allclose(rows[0][0], rows[1][0])  # the two calls' constraints differ
+    real = problem_module.normal_equations
+
+    def slow(*args, **kwargs):
+        time.sleep(0.002)  # releases the GIL: the other thread runs here
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(problem_module, "normal_equations", slow)
+    found: list[list] = [[], []]
+
+    def work(i: int):
+        for _ in range(15):
+            found[i].append(problem.solve(points[i]))
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in (0, 1)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for i in (0, 1):
+        assert len(found[i]) == 15
+        for sol in found[i]:
+            assert sol.loss == expected[i].loss
+            assert np.array_equal(sol.coefs, expected[i].coefs)
+
+
+def test_sums_of_lobes_keep_their_components_coefficient_bounds_and_rows():
+    """lambert + ashikhmin_shirley: the sum declares the bounds [0, 1] of
+    ashikhmin_shirley's rd_eff and rs and its row rd_eff + rs <= 1 (through the
+    public Model.coefficient_ranges / coefficient_constraints), and the solved
+    coefficients of data brighter than that obey them."""
+    name = "lambert+ashikhmin_shirley"
+    model = get_model(name)
+    part = get_model("ashikhmin_shirley")
+    assert model.coefficient_ranges[1:] == part.coefficient_ranges
+    assert model.coefficient_ranges[0] == get_model("lambert").coefficient_ranges[0]
+    ((row, bound),) = model.coefficient_constraints
+    assert row == (0.0, *part.coefficient_constraints[0][0]) and bound == 1.0
+    truth = {"lambert.kd": 0.1, "ashikhmin_shirley.rd": 0.7, "ashikhmin_shirley.rs": 0.3}
+    truth |= {"ashikhmin_shirley.nu": 40.0, "ashikhmin_shirley.nv": 40.0}
+    data = synthesize(name, truth, geometry="hemisphere", n=400, seed=5)
+    data = type(data)(data.wi, data.wo, 2.5 * data.values, channels=data.channels)
+    problem = Problem(data, name)
+    np.testing.assert_array_equal(problem.coef_upper, [1.0, 1.0, 1.0])
+    sol = problem.solve(problem.x_from_params(truth))
+    kd, rd_eff, rs = sol.coefs[0]
+    assert sol.loss < BAD_LOSS and 0 <= kd <= 1 and 0 <= rs <= 1
+    assert rd_eff + rs <= 1 + 1e-12
+    assert rd_eff + rs > 1 - 1e-6  # the bright data hold them on the row
