@@ -41,8 +41,8 @@ def energy_feasible(
     by the deadline keeps a prefix of the chain, not a selection by value.
     """
     rows = EnergyRows(problem)
-    shapes = theta[:, : target.d]
-    if target.d:
+    shapes = theta[:, : target.n_shape]
+    if target.n_shape:
         _, first, which = np.unique(shapes, axis=0, return_index=True, return_inverse=True)
         which = which.reshape(-1)
     else:

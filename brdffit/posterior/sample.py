@@ -177,20 +177,20 @@ def sample_posterior(
     seed = int(fit_result.options.get("seed", 0) if seed is None else seed)
     deadline = t0 + max_seconds if max_seconds is not None else float("inf")
     problem, target = _target(data, fit_result, noise)
-    if target.dim == 0 and target.k == 0:
+    if target.n_sampled == 0 and target.n_coefficients == 0:
         raise FitError(
             "every parameter of the fit is fixed and the noise is given: "
             "there is nothing to sample",
             "fixed",
         )
-    if target.dim and walkers < max(8, 2 * target.dim):
+    if target.n_sampled and walkers < max(8, 2 * target.n_sampled):
         raise FitError(
-            f"walkers={walkers} is too few: emcee needs at least {max(8, 2 * target.dim)} "
-            f"(8, and twice the {target.dim} sampled dimensions)",
+            f"walkers={walkers} is too few: emcee needs at least {max(8, 2 * target.n_sampled)} "
+            f"(8, and twice the {target.n_sampled} sampled dimensions)",
             "walkers",
         )
     rng = np.random.default_rng([seed, 7])
-    if target.dim == 0:
+    if target.n_sampled == 0:
         theta, chain, info = np.zeros((IID_DRAWS, 0)), np.zeros((0, walkers, 0)), None
     else:
         mode, cov = laplace(target, target.theta_fit)
@@ -199,7 +199,7 @@ def sample_posterior(
         info = run_chain(target, start, proposal, steps, max_steps, deadline, seed, progress, t0)
         chain = info.chain
         kept = chain[info.burn :: _thin(info)] if info.burn < len(chain) else chain[-1:]
-        theta = kept.reshape(-1, target.dim)
+        theta = kept.reshape(-1, target.n_sampled)
     coefs = target.draw_coefficients(theta, rng)
     energy_note, kept_fraction = "", 1.0
     if fit_result.options.get("energy_conserving"):
@@ -258,13 +258,13 @@ def _samples(problem, target, theta, coefs):
         for c, ch in enumerate(channels):
             names.append(coef if len(channels) == 1 else f"{coef}[{ch}]")
             columns.append(coefs[:, c, j])
-    shape = target.shape_values(theta[:, : target.d])
+    shape = target.shape_values(theta[:, : target.n_shape])
     for i, p in enumerate(problem.free_shape):
         names.append(p.name)
         columns.append(shape[:, i])
     if target.estimates_noise:
         names.append(NOISE_NAME)
-        columns.append(10.0 ** theta[:, target.d])
+        columns.append(10.0 ** theta[:, target.n_shape])
     return tuple(names), np.column_stack(columns) if columns else np.zeros((len(theta), 0))
 
 

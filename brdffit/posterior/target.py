@@ -48,11 +48,11 @@ coefficient, so the marginal stays finite even for a coefficient without an
 upper bound.
 
 Given a sampled ``(x, lam)`` the coefficients are drawn exactly from the
-Gaussian ``N(bhat_c, G_c^-1 / lam)`` restricted to that region (rejection,
-then Gibbs sweeps when it holds little mass: :mod:`brdffit.posterior.truncnorm`),
-so they are reported like every other parameter. Why not sample them with emcee: they are ``K x C``
-dimensions (6 for RGB, 60 for 30 spectral bands), exactly Gaussian given the
-shape, and the affine-invariant ensemble slows down with dimension.
+Gaussian ``N(bhat_c, G_c^-1 / lam)`` restricted to that region (rejection, then
+Gibbs sweeps when it holds little mass: :mod:`brdffit.posterior.truncnorm`), so
+they are reported like every other parameter. Not sampled by emcee: they are
+``K x C`` dimensions (6 for RGB, 60 for 30 spectral bands), exactly Gaussian
+given the shape, and the affine-invariant ensemble slows down with dimension.
 
 Samples below the horizon, where every model is 0, enter with ``f = 0``.
 """
@@ -88,23 +88,29 @@ class Target:
     ----------
     problem : Problem
     noise : {"given", "absolute", "relative"}
-    x_fit : (d,) array
+    x_fit : (n_shape,) array
         The fitted shape parameters in search space; they centre the noise prior.
     weights : (N,) array or None
         The fit's sample weights.
+
+    Attributes
+    ----------
+    n_shape, n_sampled, n_coefficients : int
+        Free shape parameters (the first columns of a sampled point); sampled
+        dimensions (``n_shape``, plus ``log10(noise)`` when it is estimated);
+        free linear coefficients per channel (integrated out, then drawn).
     """
 
     def __init__(self, problem, noise: str, x_fit, weights=None):
         self.problem = problem
         self.noise = noise
         self.shape_params = list(problem.free_shape)
-        self.d = len(self.shape_params)
+        self.n_shape = len(self.shape_params)
         self.log_scale = np.array([p.log_scale for p in self.shape_params], dtype=bool)
-        self.k = len(problem.free_coefs)
+        self.n_coefficients = len(problem.free_coefs)
         self.coef_lower, self.coef_upper = problem.coef_lower, problem.coef_upper
-        # Linear inequalities rows @ b <= bounds that the model puts on its
-        # coefficients (Ashikhmin-Shirley: rd_eff + rs <= 1), as the fit uses them.
-        self.rows, self.bounds = getattr(problem, "coef_constraints", None) or (None, None)
+        # The model's rows @ b <= bounds on its coefficients (rd_eff + rs <= 1), as fitted.
+        self.rows, self.bounds = problem.coef_constraints or (None, None)
         self._set_data(weights)
         self.batched = self._check_batched()
         self.estimates_noise = noise != "given"
@@ -114,7 +120,7 @@ class Target:
             lower.append(centre - NOISE_DECADES)
             upper.append(centre + NOISE_DECADES)
         self.lower, self.upper = np.array(lower), np.array(upper)
-        self.dim = len(self.lower)
+        self.n_sampled = len(self.lower)
         self.theta_fit = np.append(x_fit, centre) if self.estimates_noise else np.array(x_fit)
 
     # ------------------------------------------------------------------ data
@@ -159,7 +165,7 @@ class Target:
 
     # ------------------------------------------------------------ parameters
     def shape_values(self, x: np.ndarray) -> np.ndarray:
-        """Natural shape values (W, d) from search-space points, clipped to the bounds."""
+        """Natural shape values (W, n_shape) from search-space points, clipped to bounds."""
         out = np.where(self.log_scale, 10.0 ** np.where(self.log_scale, x, 0.0), x)
         lo = np.array([p.lower for p in self.shape_params])
         hi = np.array([p.upper for p in self.shape_params])
@@ -169,17 +175,17 @@ class Target:
         """The precision scale ``1 / noise^2`` of each point (1 for given noise)."""
         if not self.estimates_noise:
             return np.ones(len(theta))
-        return 10.0 ** (-2.0 * theta[:, self.d])
+        return 10.0 ** (-2.0 * theta[:, self.n_shape])
 
     # ---------------------------------------------------------------- design
     def _check_batched(self) -> bool:
         """Whether the design broadcasts over (W, 1) shape values, checked on three points
         against one-at-a-time calls (models need not support it; the loop is the fallback)."""
-        if self.d == 0:
+        if self.n_shape == 0:
             return False
         rng = np.random.default_rng(12345)
         shapes = self.shape_values(
-            rng.uniform(self.problem.lower, self.problem.upper, (3, self.d))
+            rng.uniform(self.problem.lower, self.problem.upper, (3, self.n_shape))
         )
         try:
             batched = self._design_batched(shapes)
@@ -266,7 +272,7 @@ class Target:
         coefficients (W, C, K), the residual sums of squares (W, C), and a mask
         of walkers whose design is not finite."""
         cols, offset = self.designs(shapes)
-        w_count, c, k = len(shapes), self.y.shape[1], self.k
+        w_count, c, k = len(shapes), self.y.shape[1], self.n_coefficients
         m = self.y.shape[0]
         if offset is None:
             wr = None
@@ -329,7 +335,8 @@ class Target:
 
     # ------------------------------------------------------------ log-density
     def log_prob(self, theta) -> np.ndarray:
-        """Log-posterior (up to a constant) of each row of ``theta`` (W, dim); -inf outside."""
+        """Log-posterior (up to a constant) of each row of ``theta`` (W, n_sampled); -inf
+        outside."""
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         out = np.full(len(theta), -np.inf)
         inside = np.isfinite(theta).all(axis=1)
@@ -342,12 +349,13 @@ class Target:
         return out
 
     def _log_prob_inside(self, theta: np.ndarray) -> np.ndarray:
-        gram, inv, beta, rss, bad = self._stats(self.shape_values(theta[:, : self.d]))
+        gram, inv, beta, rss, bad = self._stats(self.shape_values(theta[:, : self.n_shape]))
         lam = self.lam(theta)[:, None]
         _, logdet = np.linalg.slogdet(gram)
-        logp = -0.5 * lam * (rss + self.rss_invalid) + 0.5 * (self.n_obs - self.k) * np.log(lam)
-        logp += -0.5 * logdet + 0.5 * self.k * LOG_2PI
-        if self.k:
+        k = self.n_coefficients
+        logp = -0.5 * lam * (rss + self.rss_invalid) + 0.5 * (self.n_obs - k) * np.log(lam)
+        logp += -0.5 * logdet + 0.5 * k * LOG_2PI
+        if k:
             sd = np.sqrt(np.diagonal(inv, axis1=2, axis2=3) / lam[..., None])
             lo = (self.coef_lower - beta) / sd
             hi = (self.coef_upper - beta) / sd
@@ -365,10 +373,10 @@ class Target:
     def draw_coefficients(self, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """One draw of the coefficients (S, C, K) given each row of ``theta``."""
         theta = np.atleast_2d(theta)
-        out = np.empty((len(theta), self.y.shape[1], self.k))
+        out = np.empty((len(theta), self.y.shape[1], self.n_coefficients))
         for start in range(0, len(theta), BATCH):
             part = slice(start, start + BATCH)
-            _, inv, beta, _, _ = self._stats(self.shape_values(theta[part, : self.d]))
+            _, inv, beta, _, _ = self._stats(self.shape_values(theta[part, : self.n_shape]))
             cov = inv / self.lam(theta[part])[:, None, None, None]
             out[part] = draw_box_gaussian(
                 beta, cov, self.coef_lower, self.coef_upper, rng, self.rows, self.bounds
@@ -378,10 +386,8 @@ class Target:
 
 def _add(a, b):
     """Sum of two offsets; an (M,) or (W, M) one is broadcast over channels of a (W, M, C) one."""
-    if a.ndim == 3 and b.ndim < 3:
-        b = b[..., None]
-    elif b.ndim == 3 and a.ndim < 3:
-        a = a[..., None]
+    if a.ndim != b.ndim and 3 in (a.ndim, b.ndim):
+        a, b = (a, b[..., None]) if a.ndim == 3 else (a[..., None], b)
     return a + b
 
 
@@ -390,6 +396,4 @@ def _dense(x, w: int, m: int, c: int) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     if x.ndim == 3:
         return x
-    if x.ndim == 1:
-        x = np.broadcast_to(x, (w, m))
     return np.broadcast_to(np.broadcast_to(x, (w, m))[..., None], (w, m, c))
