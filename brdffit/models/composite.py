@@ -74,8 +74,8 @@ def _combined_classification(models) -> Classification:
     )
 
 
-def _coefficient_limits(models, dropped) -> tuple[tuple, tuple | None]:
-    """The sum's coefficient bounds and linear constraints: each component's own
+def _coefficient_limits(models, dropped) -> dict:
+    """The sum's ``coefficient_bounds`` and ``coefficient_constraints``: each component's own
     (:attr:`Model.coefficient_ranges`, :attr:`Model.coefficient_constraints`),
     placed at its coefficients' positions in the sum (removed ones are held at 0)."""
     bounds, rows = [], []
@@ -91,7 +91,7 @@ def _coefficient_limits(models, dropped) -> tuple[tuple, tuple | None]:
                 full[start + j] = float(row[i])
             rows.append((tuple(full), bound))
         start += len(kept)
-    return tuple(bounds), (tuple(rows) or None)
+    return {"coefficient_bounds": tuple(bounds), "coefficient_constraints": tuple(rows) or None}
 
 
 def sum_of_lobes(models: list[Model]) -> Model:
@@ -169,7 +169,6 @@ def sum_of_lobes(models: list[Model]) -> Model:
                         out[f"{labels[dst]}.{p.name}"] = values[f"{labels[src]}.{p.name}"]
         return out
 
-    coefficient_bounds, coefficient_constraints = _coefficient_limits(models, dropped)
     doc = "Sum of lobes: " + " + ".join(
         f"{label} ({m.name}: {m.doc.strip().splitlines()[0]})" for label, m in zip(labels, models)
     )
@@ -185,6 +184,5 @@ def sum_of_lobes(models: list[Model]) -> Model:
         from_coefficients=from_coefficients,
         reciprocal=all(m.reciprocal for m in models),
         canonical=canonical,
-        coefficient_bounds=coefficient_bounds,
-        coefficient_constraints=coefficient_constraints,
+        **_coefficient_limits(models, dropped),
     )

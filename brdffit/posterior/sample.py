@@ -176,7 +176,36 @@ def sample_posterior(
     )
     seed = int(fit_result.options.get("seed", 0) if seed is None else seed)
     deadline = t0 + max_seconds if max_seconds is not None else float("inf")
-    problem, target = _target(data, fit_result, noise)
+    problem, target = _target(data, fit_result, noise, walkers)
+    rng = np.random.default_rng([seed, 7])
+    run = (steps, max_steps, deadline, seed, progress, t0)
+    theta, chain, info = _shape_draws(target, walkers, rng, run)
+    theta, coefs, energy_note, kept_fraction = _coefficient_draws(
+        fit_result, problem, target, theta, rng, deadline
+    )
+    common = _common(problem, target, theta, coefs)
+    common.update(noise=noise, chain=chain, n_walkers=walkers, seed=seed)
+    seconds = time.perf_counter() - t0
+    return _posterior(common, info, max_seconds, seconds, energy_note, kept_fraction)
+
+
+def _common(problem, target, theta, coefs) -> dict:
+    """What the Posterior records of the problem and the draws (names, samples)."""
+    names, samples = _samples(problem, target, theta, coefs)
+    noise_name = (NOISE_NAME,) * target.estimates_noise
+    return dict(
+        model=problem.model.name,
+        loss=problem.loss.name,
+        names=names,
+        samples=_canonical_samples(problem, names, samples),
+        channels=tuple(problem.data.channels),
+        sampled=tuple(p.name for p in problem.free_shape) + noise_name,
+        sampled_log=tuple(bool(v) for v in target.log_scale) + (True,) * target.estimates_noise,
+    )
+
+
+def _check_dimensions(target, walkers: int) -> None:
+    """Something to sample, and enough walkers for emcee."""
     if target.n_sampled == 0 and target.n_coefficients == 0:
         raise FitError(
             "every parameter of the fit is fixed and the noise is given: "
@@ -189,43 +218,36 @@ def sample_posterior(
             f"(8, and twice the {target.n_sampled} sampled dimensions)",
             "walkers",
         )
-    rng = np.random.default_rng([seed, 7])
+
+
+def _shape_draws(target, walkers: int, rng, run: tuple):
+    """The kept points of the sampled dimensions (S, n_sampled), the chain and the
+    run's diagnostics; without sampled dimensions, IID_DRAWS empty points."""
     if target.n_sampled == 0:
-        theta, chain, info = np.zeros((IID_DRAWS, 0)), np.zeros((0, walkers, 0)), None
-    else:
-        mode, cov = laplace(target, target.theta_fit)
-        start = start_walkers(target, mode, cov, walkers, rng)
-        proposal = StudentIndependence(mode, cov)
-        info = run_chain(target, start, proposal, steps, max_steps, deadline, seed, progress, t0)
-        chain = info.chain
-        kept = chain[info.burn :: _thin(info)] if info.burn < len(chain) else chain[-1:]
-        theta = kept.reshape(-1, target.n_sampled)
+        return np.zeros((IID_DRAWS, 0)), np.zeros((0, walkers, 0)), None
+    steps, max_steps, deadline, seed, progress, t0 = run
+    mode, cov = laplace(target, target.theta_fit)
+    start = start_walkers(target, mode, cov, walkers, rng)
+    proposal = StudentIndependence(mode, cov)
+    info = run_chain(target, start, proposal, steps, max_steps, deadline, seed, progress, t0)
+    chain = info.chain
+    kept = chain[info.burn :: _thin(info)] if info.burn < len(chain) else chain[-1:]
+    return kept.reshape(-1, target.n_sampled), chain, info
+
+
+def _coefficient_draws(fit_result, problem, target, theta, rng, deadline):
+    """One draw of the coefficients per point of ``theta``; for an energy-conserving
+    fit only the draws that keep its albedo rows, with the note and kept fraction."""
     coefs = target.draw_coefficients(theta, rng)
-    energy_note, kept_fraction = "", 1.0
-    if fit_result.options.get("energy_conserving"):
-        keep, energy_note = restrict_to_energy(problem, target, theta, coefs, deadline)
-        theta, coefs, kept_fraction = theta[keep], coefs[keep], float(keep.mean())
-    names, samples = _samples(problem, target, theta, coefs)
-    samples = _canonical_samples(problem, names, samples)
-    common = dict(
-        model=problem.model.name,
-        loss=problem.loss.name,
-        noise=noise,
-        names=names,
-        samples=samples,
-        chain=chain,
-        n_walkers=walkers,
-        seed=seed,
-        channels=tuple(problem.data.channels),
-        sampled=tuple(p.name for p in problem.free_shape) + (NOISE_NAME,) * target.estimates_noise,
-        sampled_log=tuple(bool(v) for v in target.log_scale) + (True,) * target.estimates_noise,
-    )
-    seconds = time.perf_counter() - t0
-    return _posterior(common, info, max_seconds, seconds, energy_note, kept_fraction)
+    if not fit_result.options.get("energy_conserving"):
+        return theta, coefs, "", 1.0
+    keep, note = restrict_to_energy(problem, target, theta, coefs, deadline)
+    return theta[keep], coefs[keep], note, float(keep.mean())
 
 
-def _target(data, fit_result, noise):
-    """The fit's problem rebuilt on the data, and the log-posterior over it."""
+def _target(data, fit_result, noise, walkers: int):
+    """The fit's problem rebuilt on the data, and the log-posterior over it (checked
+    to have something to sample with enough walkers)."""
     weights = fit_result.weights
     problem = Problem(
         data,
@@ -239,8 +261,9 @@ def _target(data, fit_result, noise):
         # the likelihood, it does not lend its information to the others.
         weights = np.asarray(weights, dtype=float)
         weights = weights / np.mean(weights[weights > 0])
-    x_fit = problem.x_from_params(fit_result.params)
-    return problem, Target(problem, noise, x_fit, weights)
+    target = Target(problem, noise, problem.x_from_params(fit_result.params), weights)
+    _check_dimensions(target, walkers)
+    return problem, target
 
 
 def _thin(info) -> int:
