@@ -232,13 +232,13 @@ def cmd_evaluate(args) -> int:
 
 
 def cmd_serve(args) -> int:
-    """Run the HTTP service (the ``service`` package) under uvicorn."""
+    """Run the HTTP service (package ``brdffit_service``, folder ``service/``) under uvicorn."""
     for module in ("fastapi", "uvicorn"):
         require(module, "service")
     import uvicorn
 
-    from service import Settings, create_app
-    from service.settings import SettingsError
+    from brdffit_service import Settings, create_app
+    from brdffit_service.settings import SettingsError
 
     try:
         settings = Settings.from_env(
