@@ -1,10 +1,11 @@
 """The FastAPI application: ``create_app(settings)``.
 
-Run it with ``brdffit serve`` (or ``uvicorn service.app:app``, which reads the
-settings from the environment). This module only wires the parts: the routes
-(:mod:`service.routes`, one module per resource), the shared state handed to
-them (:mod:`service.deps`), the error handlers (:mod:`service.errors`) and
-the body-size limit (:mod:`service.middleware`).
+Run it with ``brdffit serve`` (or ``uvicorn brdffit_service.app:app``, which reads
+the settings from the environment; the folder ``service/`` installs as the package
+``brdffit_service``). This module only wires the parts: the routes
+(:mod:`brdffit_service.routes`, one module per resource), the shared state handed to
+them (:mod:`brdffit_service.deps`), the error handlers (:mod:`brdffit_service.errors`) and
+the body-size limit (:mod:`brdffit_service.middleware`).
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
 
 def __getattr__(name: str):
-    # ``uvicorn service.app:app`` builds the app from the environment when asked.
+    # ``uvicorn brdffit_service.app:app`` builds the app from the environment when asked.
     if name == "app":
         return create_app()
     raise AttributeError(name)

@@ -1,6 +1,6 @@
 """What handlers share, handed to them by FastAPI's ``Depends``.
 
-The app's lifespan (:func:`service.app.create_app`) makes one store, one job
+The app's lifespan (:func:`brdffit_service.app.create_app`) makes one store, one job
 runner and one pool of synchronous fits, and keeps them on the app; these
 functions are the only place that looks them up, so a handler declares what it
 needs by type (``store: StoreDep``) and a test can swap any of them through

@@ -1,11 +1,11 @@
 """Every error answer of the service, from one set of exception handlers.
 
-Every error answers with :class:`~service.schemas.ErrorOut`:
+Every error answers with :class:`~brdffit_service.schemas.ErrorOut`:
 
 - a library error (:class:`brdffit.BrdfFitError`) -> 422, naming its ``field``;
 - a body that does not match its schema -> 422, naming every field;
 - an :class:`ApiError` of a route (not found, conflict...) -> its status;
-- a body larger than ``max_body_bytes`` -> 413 (:mod:`service.middleware`);
+- a body larger than ``max_body_bytes`` -> 413 (:mod:`brdffit_service.middleware`);
 - anything else is a bug: logged with its traceback, answered with a JSON 500.
 """
 
@@ -40,7 +40,7 @@ class ApiError(HTTPException):
 
 
 def error_body(message: str, field: str | None, kind: str, errors=None) -> dict:
-    """The JSON of :class:`~service.schemas.ErrorOut`."""
+    """The JSON of :class:`~brdffit_service.schemas.ErrorOut`."""
     items = errors if errors is not None else [{"field": field, "message": message}]
     return {"field": field, "message": message, "kind": kind, "errors": items}
 

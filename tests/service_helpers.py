@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import brdffit
-from service.schemas import EXAMPLE_DATA
+from brdffit_service.schemas import EXAMPLE_DATA
 
 ROOT = Path(__file__).resolve().parents[1]
 WARD_CSV = ROOT / "data_synthetic" / "ward.csv"

@@ -6,7 +6,7 @@ import pytest
 from fastapi.testclient import TestClient
 from service_helpers import BODY_LIMIT, FIT_LIMIT
 
-from service import Settings, create_app
+from brdffit_service import Settings, create_app
 
 
 @pytest.fixture(scope="session")

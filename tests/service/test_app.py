@@ -8,8 +8,8 @@ from fastapi.testclient import TestClient
 from service_helpers import BODY_LIMIT, assert_error
 
 import brdffit
-from service import Settings, create_app
-from service.schemas import EXAMPLE_DATA
+from brdffit_service import Settings, create_app
+from brdffit_service.schemas import EXAMPLE_DATA
 
 
 def test_health_counts_jobs_by_status(client):

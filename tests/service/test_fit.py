@@ -11,7 +11,7 @@ import pytest
 from service_helpers import FIT_LIMIT, WARD_CSV, assert_error, direction, example_measurements
 
 import brdffit
-from service.schemas import EXAMPLE_DATA
+from brdffit_service.schemas import EXAMPLE_DATA
 
 
 def test_evaluate_matches_the_model_at_directions_from_angles(client):

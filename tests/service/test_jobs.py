@@ -13,10 +13,10 @@ from service_helpers import WARD_CSV, assert_error, example_measurements, wait_f
 
 import brdffit
 from brdffit.jsonable import jsonable
-from service import Settings, create_app
-from service.jobs import FitPool
-from service.schemas import EXAMPLE_DATA
-from service.store import SCHEMA, JobStore, data_to_bytes
+from brdffit_service import Settings, create_app
+from brdffit_service.jobs import FitPool
+from brdffit_service.schemas import EXAMPLE_DATA
+from brdffit_service.store import SCHEMA, JobStore, data_to_bytes
 
 
 def test_a_job_runs_to_the_library_result(client):

@@ -17,7 +17,7 @@ from service_helpers import example_measurements
 import brdffit
 from brdffit.jsonable import jsonable
 from brdffit.models.properties import model_properties
-from service.schemas import (
+from brdffit_service.schemas import (
     EXAMPLE_DATA,
     ClassificationOut,
     ErrorOut,
@@ -30,7 +30,7 @@ from service.schemas import (
     PropertiesOut,
     SummaryOut,
 )
-from service.store import JobStore, data_to_bytes
+from brdffit_service.store import JobStore, data_to_bytes
 
 #: Fields the service adds to a library answer (not in any to_dict()).
 SERVICE_ONLY = {FitResultOut: {"data_notes"}, ModelOut: {"properties"}}

@@ -22,7 +22,7 @@ from schemathesis.checks import (  # noqa: E402
     status_code_conformance,
 )
 
-from service import Settings, create_app  # noqa: E402
+from brdffit_service import Settings, create_app  # noqa: E402
 
 EXAMPLES = 15
 
