@@ -41,7 +41,7 @@ INCIDENCE_GRID = np.arange(0.0, 86.0, 5.0)
 CHECK_GRID = np.concatenate([np.arange(0.0, 88.0, 2.5), [89.0]])
 #: Resolution of the fixed rule used inside the fit (azimuths, radial intervals):
 #: 32 azimuths erred by 5 % on ward_anisotropic at 85 degrees, 64 by 3e-4
-#: (tests/test_energy.py checks 1e-3 against the adaptive quadrature).
+#: (tests/fitting/test_energy.py checks 1e-3 against the adaptive quadrature).
 ROW_AZIMUTHS, ROW_INTERVALS = 64, 8
 
 

@@ -30,9 +30,14 @@ Three stages, each only for the channels the previous one left:
    which is the dual of a non-negative least-squares problem
    (:func:`scipy.optimize.nnls`): C. L. Lawson and R. J. Hanson, *Solving
    Least Squares Problems* (Prentice-Hall 1974; SIAM 1995), chapter 23,
-   sections 3-5. NNLS is an active-set method with finite termination,
-   typically a few iterations per active constraint; bounds and rows of any
-   number are handled alike.
+   sections 3-5. Bounds and rows of any number are handled alike. NNLS is
+   an active-set method with finite termination whose main iterations each
+   add one row to the active set; here its iterations are capped at
+   ``10 R + 50`` for R rows (each O(R K + K^3)), so the cost of a call is bounded,
+   and a call that reached the cap would count as having no solution.
+   The NNLS multipliers also name the active rows, whose equality-constrained
+   least squares then gives the point exactly where columns are nearly
+   collinear (:func:`_polish`).
 """
 
 from __future__ import annotations
@@ -156,7 +161,8 @@ def solve_bounded(
     Raises
     ------
     numpy.linalg.LinAlgError
-        When no coefficients satisfy the bounds and rows of some channel.
+        When no coefficients satisfy the bounds and rows of some channel (the
+        fitting objective turns this into its "infeasible" value).
     """
     c, k = normal.rhs.shape
     rows = _per_channel(constraints, c)
