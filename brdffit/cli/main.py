@@ -12,6 +12,7 @@ progress line on stderr when stderr is a terminal, and never under ``--json``.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import warnings
 
@@ -190,6 +191,17 @@ def _warn(message, category, filename, lineno, file=None, line=None):
     sys.stderr.write(f"brdffit: warning: {message}\n")
 
 
+def _closed_stdout() -> int:
+    """The reader of stdout went away (``brdffit models | head``): stop quietly, as a
+    command killed by SIGPIPE would, without a traceback when Python flushes stdout."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass  # stdout is not a file (a test's capture): nothing will flush into the pipe
+    return 141  # 128 + SIGPIPE
+
+
 def main(argv=None) -> int:
     """Run the command line; return the exit code (0, or 2 for bad input)."""
     parser = build_parser()
@@ -209,6 +221,8 @@ def main(argv=None) -> int:
         except KeyboardInterrupt:
             sys.stderr.write(f"\n{name}: interrupted\n")
             return 130
+        except BrokenPipeError:
+            return _closed_stdout()
     sys.stderr.write(f"{name}: error: {message}\n")
     return 2
 

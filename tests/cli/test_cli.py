@@ -235,6 +235,20 @@ def test_console_script_reports_errors_without_traceback(tmp_path):
     assert done.stderr.strip().count("\n") == 0 and "No such file" in done.stderr
 
 
+def test_a_closed_pipe_on_stdout_stops_quietly():
+    """``brdffit models --json | head -1``: the reader goes away before the output is
+    written; the command stops without a traceback (it printed one before)."""
+    script = shutil.which("brdffit")
+    argv = [script] if script else [sys.executable, "-m", "brdffit.cli"]
+    process = subprocess.Popen(
+        [*argv, "models", "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    process.stdout.close()  # before the command has imported brdffit, let alone printed
+    stderr = process.stderr.read().decode()
+    assert process.wait(timeout=60) == 141
+    assert stderr == ""
+
+
 # ---------------------------------------------------------------- progress
 class FakeTerminal(io.StringIO):
     def isatty(self):
