@@ -23,6 +23,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import brdffit
+from brdffit.fitting.options import weights_summary
 
 __all__ = ["JobStore", "data_from_bytes", "data_to_bytes", "iso"]
 
@@ -230,7 +231,19 @@ def _public(row: sqlite3.Row) -> dict:
     for key in ("progress", "result", "error"):
         if key in out:
             out[key] = None if out[key] is None else json.loads(out[key])
+    if out.get("result"):
+        out["result"] = _upgraded(out["result"])
     if "notes" in out:
         notes = out.pop("notes")
         out["data_notes"] = [] if notes is None else json.loads(notes)
     return out
+
+
+def _upgraded(result: dict) -> dict:
+    """A result stored before results summarised their weights (every weight was in
+    ``options.weights``) answers the summary, as a result stored today does."""
+    options = result.get("options") or {}
+    if isinstance(options.get("weights"), list):
+        summary = weights_summary(options["weights"])
+        result = {**result, "options": {**options, "weights": summary}}
+    return result

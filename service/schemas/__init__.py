@@ -21,7 +21,7 @@ from .requests import (
     JobStatus,
     PosteriorOptions,
 )
-from .results import FitResultOut, PosteriorOut, SummaryOut
+from .results import FitResultOut, OptionsOut, PosteriorOut, SummaryOut, WeightsOut
 from .service import ErrorItem, ErrorOut, HealthOut, JobOut, JobProgress
 
 __all__ = [
@@ -40,9 +40,11 @@ __all__ = [
     "JobProgress",
     "JobStatus",
     "ModelOut",
+    "OptionsOut",
     "ParamOut",
     "PosteriorOptions",
     "PosteriorOut",
     "PropertiesOut",
     "SummaryOut",
+    "WeightsOut",
 ]

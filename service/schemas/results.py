@@ -8,11 +8,17 @@ that is not finite is ``null`` (JSON has no NaN: :mod:`brdffit.jsonable`).
 
 from __future__ import annotations
 
-from typing import Any
-
 from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["FitResultOut", "MaybeFloat", "PerChannelOut", "PosteriorOut", "SummaryOut"]
+__all__ = [
+    "FitResultOut",
+    "MaybeFloat",
+    "OptionsOut",
+    "PerChannelOut",
+    "PosteriorOut",
+    "SummaryOut",
+    "WeightsOut",
+]
 
 #: Answers say null where a number is not finite (JSON has no NaN).
 MaybeFloat = float | None
@@ -74,6 +80,35 @@ class PosteriorOut(BaseModel):
     channels: list[str] = Field(description="The data's channels.")
 
 
+class WeightsOut(BaseModel):
+    """What a fit's options say of its per-sample weights (the array stays in Python)."""
+
+    model_config = ANSWER
+
+    count: int = Field(description="How many weights (one per sample).")
+    min: float = Field(description="The smallest weight.")
+    max: float = Field(description="The largest weight.")
+    zeros: int = Field(description="How many weights are 0 (samples left out).")
+
+
+class OptionsOut(BaseModel):
+    """``FitOptions.record()``: the options a fit ran with, defaults resolved."""
+
+    model_config = ANSWER
+
+    loss: str = Field(description="The loss minimised.")
+    global_algorithm: str | None = Field(description="nlopt global algorithm; null: none.")
+    local_algorithm: str = Field(description="nlopt local algorithm of the polish.")
+    global_evals: int = Field(description="Budget of the global stage.")
+    local_evals: int = Field(description="Budget of each local polish.")
+    restarts: int = Field(description="Further polishes from distinct points.")
+    max_evals: int = Field(description="Cap on all evaluations.")
+    timeout: MaybeFloat = Field(description="Seconds the fit could run; null: no limit.")
+    seed: int = Field(description="The seed (same seed, same result).")
+    energy_conserving: bool = Field(description="Albedo held at most 1 at every incidence.")
+    weights: WeightsOut | None = Field(description="A summary of the weights; null: none.")
+
+
 class FitResultOut(BaseModel):
     """``FitResult.to_dict()``, and in answers to ``POST /fit`` the data's notes."""
 
@@ -102,9 +137,8 @@ class FitResultOut(BaseModel):
     message: str = Field(description="What happened, in words.")
     channels: list[str] = Field(description="The data's channel names.")
     fixed: dict[str, PerChannelOut] = Field(description="Parameters held fixed.")
-    options: dict[str, Any] = Field(
-        description="The options of the fit (loss, algorithms, budgets, seed, a summary of "
-        "the weights...), enough to reproduce it."
+    options: OptionsOut = Field(
+        description="The options of the fit, defaults resolved: enough to reproduce it."
     )
     at_bounds: list[str] = Field(description="Shape parameters that ended at a bound.")
     posterior: PosteriorOut | None = Field(

@@ -15,7 +15,7 @@ import brdffit
 from brdffit.jsonable import jsonable
 from brdffit_service import Settings, create_app
 from brdffit_service.jobs import FitPool
-from brdffit_service.schemas import EXAMPLE_DATA
+from brdffit_service.schemas import EXAMPLE_DATA, JobOut
 from brdffit_service.store import SCHEMA, JobStore, data_to_bytes
 
 
@@ -182,3 +182,17 @@ def test_a_50000_sample_upload_is_accepted_as_a_job(tmp_path):
         )
         assert answer.status_code == 202, answer.text
         assert c.delete(f"/jobs/{answer.json()['id']}").status_code == 204
+
+
+def test_a_result_stored_with_every_weight_answers_their_summary(tmp_path):
+    """Results stored before FitResult.options summarised the weights carried the whole
+    array; such a job still answers, in today's schema."""
+    store = JobStore(tmp_path / "jobs.sqlite3")
+    job = store.create("blinn", {}, data_to_bytes(example_measurements()))
+    store.start(job["id"], 1)
+    result = jsonable(brdffit.fit(example_measurements(), "blinn").to_dict())
+    old = {**result, "options": {**result["options"], "weights": [1.0, 0.0, 2.5]}}
+    store.finish(job["id"], 1, result=old)
+    weights = store.get(job["id"])["result"]["options"]["weights"]
+    assert weights == {"count": 3, "min": 0.0, "max": 2.5, "zeros": 1}
+    JobOut.model_validate(store.get(job["id"]))

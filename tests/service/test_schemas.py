@@ -25,10 +25,12 @@ from brdffit_service.schemas import (
     JobOut,
     JobProgress,
     ModelOut,
+    OptionsOut,
     ParamOut,
     PosteriorOut,
     PropertiesOut,
     SummaryOut,
+    WeightsOut,
 )
 from brdffit_service.store import JobStore, data_to_bytes
 
@@ -48,6 +50,7 @@ def fitted():
     result = brdffit.fit(
         example_measurements(),
         "blinn",
+        weights=[1.0] * 11 + [0.0],
         uncertainty=True,
         posterior_options=POSTERIOR | {"progress": reports.append},
         progress=reports.append,
@@ -59,6 +62,8 @@ def test_a_fit_and_its_posterior_have_exactly_the_fields_of_their_schemas(fitted
     result, _ = fitted
     answer = jsonable(result.to_dict())
     assert set(answer) == fields(FitResultOut)
+    assert set(answer["options"]) == fields(OptionsOut)
+    assert set(answer["options"]["weights"]) == fields(WeightsOut)
     assert set(answer["posterior"]) == fields(PosteriorOut)
     for summary in answer["posterior"]["summary"].values():
         assert set(summary) == fields(SummaryOut)
@@ -115,6 +120,8 @@ def test_a_failed_job_answers_an_error_of_the_error_schema(tmp_path):
     "schema",
     [
         FitResultOut,
+        OptionsOut,
+        WeightsOut,
         PosteriorOut,
         SummaryOut,
         ModelOut,
