@@ -105,6 +105,16 @@ def live_members(group: int) -> list[int]:
     return out
 
 
+def wait_for_posterior(client, job_id: str, seconds: float = 30.0) -> None:
+    """Wait until the running job reports progress of its posterior."""
+    running = wait_for(client, job_id, ("running",))
+    deadline = time.monotonic() + seconds
+    while running["progress"] is None or running["progress"]["stage"] != "posterior":
+        assert time.monotonic() < deadline, running
+        time.sleep(0.2)
+        running = client.get(f"/jobs/{job_id}").json()
+
+
 def test_results_survive_a_crash_and_the_cut_job_is_interrupted(tmp_path):
     store, log = tmp_path / "jobs.sqlite3", tmp_path / "server.log"
     upload = {"file": ("ward.csv", WARD.read_bytes(), "text/csv")}
@@ -134,12 +144,7 @@ def test_results_survive_a_crash_and_the_cut_job_is_interrupted(tmp_path):
             "/jobs/file", files=upload, data={"model": "ward", "options": slow_options}
         )
         slow_id = slow.json()["id"]
-        running = wait_for(first.client, slow_id, ("running",))
-        deadline = time.monotonic() + 30
-        while running["progress"] is None or running["progress"]["stage"] != "posterior":
-            assert time.monotonic() < deadline, running
-            time.sleep(0.2)
-            running = first.client.get(f"/jobs/{slow_id}").json()
+        wait_for_posterior(first.client, slow_id)
         first.kill()
         if Path("/proc/self/stat").exists():
             # The orphaned worker notices that its server is gone and leaves by itself.
