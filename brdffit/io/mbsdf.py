@@ -82,7 +82,8 @@ def _next_line(raw: bytes, pos: int, path: str) -> tuple[bytes, int]:
     if end < 0:
         raise FormatError(
             f"{path}: no data block: the text from byte {pos} to the end of the file (byte "
-            f"{len(raw)}) has no line MBSDF_DATA_REFLECTION= (or MBSDF_DATA=)"
+            f"{len(raw)}) has no line MBSDF_DATA_REFLECTION= (or MBSDF_DATA=)",
+            "source",
         )
     return raw[pos : end + 1], end + 1
 
@@ -93,7 +94,8 @@ def _metadata_entry(line: bytes, pos: int, path: str) -> tuple[str, str]:
     except UnicodeDecodeError:
         raise FormatError(
             f"{path}: the header line at byte {pos} is not text; before its data an MBSDF "
-            "file has only KEY=value lines and a line MBSDF_DATA_REFLECTION="
+            "file has only KEY=value lines and a line MBSDF_DATA_REFLECTION=",
+            "source",
         ) from None
     key, _, value = text.partition("=")
     if len(value) >= 2 and value[0] == value[-1] == '"':
@@ -106,24 +108,28 @@ def _block_header(raw: bytes, pos: int, path: str, part: str) -> tuple[int, int,
     if len(raw) < pos + 12:
         raise FormatError(
             f"{path} is truncated: the {part} block needs 12 bytes of type and resolutions "
-            f"at byte {pos}, but the file ends at byte {len(raw)}"
+            f"at byte {pos}, but the file ends at byte {len(raw)}",
+            "source",
         )
     kind, n_theta, n_phi = np.frombuffer(raw, dtype="<u4", count=3, offset=pos).tolist()
     if kind not in TYPES:
         raise FormatError(
-            f"{path}: the {part} type at byte {pos} is {kind}; it must be 0 (scalar) or 1 (RGB)"
+            f"{path}: the {part} type at byte {pos} is {kind}; it must be 0 (scalar) or 1 (RGB)",
+            "source",
         )
     for value, offset, name in ((n_theta, pos + 4, "theta"), (n_phi, pos + 8, "phi")):
         if value == 0:
             raise FormatError(
-                f"{path}: the {part} {name} resolution at byte {offset} is 0; it must be >= 1"
+                f"{path}: the {part} {name} resolution at byte {offset} is 0; it must be >= 1",
+                "source",
             )
     end = pos + 12 + n_theta * n_theta * n_phi * len(TYPES[kind]) * 4
     if end > len(raw):
         raise FormatError(
             f"{path} is truncated: the {part} block of {len(TYPES[kind])} x {n_theta} x "
             f"{n_theta} x {n_phi} float32 values from byte {pos + 12} needs the file to reach "
-            f"byte {end}, but it ends at byte {len(raw)}"
+            f"byte {end}, but it ends at byte {len(raw)}",
+            "source",
         )
     return kind, n_theta, n_phi, end
 
@@ -134,7 +140,8 @@ def _find_reflection(raw: bytes, path: str) -> tuple[int, dict]:
         found = raw[: len(MAGIC)]
         raise FormatError(
             f"{path}: wrong magic at byte 0: found {found!r}, expected {MAGIC!r}; "
-            "this is not an NVIDIA MBSDF file"
+            "this is not an NVIDIA MBSDF file",
+            "source",
         )
     pos, metadata = len(MAGIC), {}
     while True:
@@ -144,7 +151,8 @@ def _find_reflection(raw: bytes, path: str) -> tuple[int, dict]:
         if line == TRANSMISSION_MARKER:
             raise FormatError(
                 f"{path}: the first data block, at byte {pos}, is a transmission (BTDF) part; "
-                "brdffit reads reflection (MBSDF_DATA_REFLECTION=) data"
+                "brdffit reads reflection (MBSDF_DATA_REFLECTION=) data",
+                "source",
             )
         key, value = _metadata_entry(line, pos, path)
         metadata[key] = value
@@ -162,7 +170,8 @@ def _check_tail(raw: bytes, pos: int, path: str) -> bool:
         pos = end
     raise FormatError(
         f"{path}: unexpected data at byte {pos} of {len(raw)}: after its data blocks an MBSDF "
-        "file ends (only a MBSDF_DATA_TRANSMISSION= block may follow the reflection block)"
+        "file ends (only a MBSDF_DATA_TRANSMISSION= block may follow the reflection block)",
+        "source",
     )
 
 
@@ -181,7 +190,8 @@ def read_mbsdf_arrays(source) -> MbsdfSamples:
     if bad.any():
         first = int(np.flatnonzero(bad)[0])
         raise FormatError(
-            f"{path}: the value {values[first]} at byte {pos + 12 + 4 * first} is not finite"
+            f"{path}: the value {values[first]} at byte {pos + 12 + 4 * first} is not finite",
+            "source",
         )
     wi, wo = mbsdf_directions(n_theta, n_phi)
     return MbsdfSamples(

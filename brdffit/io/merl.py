@@ -188,28 +188,32 @@ def _read_table(raw: bytes, path: str) -> np.ndarray:
     if size < HEADER_BYTES:
         raise FormatError(
             f"{path}: the file has {size} bytes; a MERL file starts with a "
-            f"{HEADER_BYTES}-byte header of three int32 dimensions at byte 0"
+            f"{HEADER_BYTES}-byte header of three int32 dimensions at byte 0",
+            "source",
         )
     dims = np.frombuffer(raw, dtype="<i4", count=3).tolist()
     if min(dims) <= 0 or math.prod(dims) != N_CELLS:
         raise FormatError(
             f"{path}: the dimensions {dims} at byte 0 multiply to {math.prod(dims)}; "
             f"a MERL table needs {RES_THETA_H} x {RES_THETA_D} x {RES_PHI_D} = {N_CELLS} "
-            "cells (a table over the full phi_d range of 360 is not this format)"
+            "cells (a table over the full phi_d range of 360 is not this format)",
+            "source",
         )
     expected = HEADER_BYTES + DATA_BYTES
     if size != expected:
         what = "is truncated: it ends" if size < expected else "has extra data: it ends"
         raise FormatError(
             f"{path} {what} at byte {size}, but the header's 3 x {N_CELLS} doubles "
-            f"from byte {HEADER_BYTES} end at byte {expected}"
+            f"from byte {HEADER_BYTES} end at byte {expected}",
+            "source",
         )
     table = np.frombuffer(raw, dtype="<f8", count=3 * N_CELLS, offset=HEADER_BYTES)
     if not np.isfinite(table).all():
         first = int(np.flatnonzero(~np.isfinite(table))[0])
         raise FormatError(
             f"{path}: the value {table[first]} at byte {HEADER_BYTES + 8 * first} is not "
-            "finite; MERL values are finite, negative where a cell has no measurement"
+            "finite; MERL values are finite, negative where a cell has no measurement",
+            "source",
         )
     return table.reshape(3, RES_THETA_H, RES_THETA_D, RES_PHI_D)
 

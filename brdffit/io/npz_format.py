@@ -57,7 +57,7 @@ def read_npz(source) -> Measurements:
         with np.load(io.BytesIO(raw), allow_pickle=False) as archive:
             contents = {key: archive[key] for key in archive.files}
     except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
-        raise FormatError(f"{path} is not a readable .npz archive: {exc}", "path") from None
+        raise FormatError(f"{path} is not a readable .npz archive: {exc}", "source") from None
     missing = [key for key in _REQUIRED if key not in contents]
     if missing:
         raise FormatError(

@@ -187,13 +187,15 @@ def _field(fields: dict, name: str, ndim: int, path, dtype: str = "<f4") -> Tens
     if name not in fields:
         raise FormatError(
             f"{path}: the tensor file has no field {name!r}; an RGL material file has "
-            f"theta_i, phi_i, ndf, sigma, vndf, rgb, jacobian (fields: {', '.join(fields)})"
+            f"theta_i, phi_i, ndf, sigma, vndf, rgb, jacobian (fields: {', '.join(fields)})",
+            "source",
         )
     f = fields[name]
     if f.dtype != np.dtype(dtype) or len(f.shape) != ndim:
         raise FormatError(
             f"{path}: field {name!r} (header data at byte {f.offset}) is {f.dtype} with shape "
-            f"{list(f.shape)}; it must be {np.dtype(dtype)} with {ndim} dimension(s)"
+            f"{list(f.shape)}; it must be {np.dtype(dtype)} with {ndim} dimension(s)",
+            "source",
         )
     return f
 
@@ -203,7 +205,8 @@ def _check_layout(fields: dict, path) -> dict:
     if "rgb" not in fields and ("spectra" in fields or "wavelengths" in fields):
         raise FormatError(
             f"{path} is a spectral RGL file (field 'spectra'); brdffit reads the RGB files "
-            "of the database (the *_rgb.bsdf downloads)"
+            "of the database (the *_rgb.bsdf downloads)",
+            "source",
         )
     need = {"theta_i": 1, "phi_i": 1, "ndf": 2, "sigma": 2, "vndf": 4, "rgb": 5}
     f = {name: _field(fields, name, ndim, path) for name, ndim in need.items()}
@@ -212,7 +215,8 @@ def _check_layout(fields: dict, path) -> dict:
     if n_phi != 1:
         raise FormatError(
             f"{path}: phi_i (data at byte {f['phi_i'].offset}) has {n_phi} values; brdffit "
-            "reads isotropic RGL files (one incident azimuth), not anisotropic ones"
+            "reads isotropic RGL files (one incident azimuth), not anisotropic ones",
+            "source",
         )
     expected = {"vndf": (n_phi, n_theta), "rgb": (n_phi, n_theta, 3)}
     for name, head in expected.items():
@@ -221,18 +225,22 @@ def _check_layout(fields: dict, path) -> dict:
             raise FormatError(
                 f"{path}: field {name!r} (data at byte {f[name].offset}) has shape "
                 f"{list(shape)}; it must start with {list(head)} (phi_i, theta_i"
-                f"{', 3 channels' if name == 'rgb' else ''}) and have a grid of at least 2 x 2"
+                f"{', 3 channels' if name == 'rgb' else ''}) and have a grid of at least 2 x 2",
+                "source",
             )
     if f["jacobian"].shape != (1,) or min(f["ndf"].shape + f["sigma"].shape) < 2:
         raise FormatError(
             f"{path}: jacobian must hold one byte and ndf, sigma be grids of at least 2 x 2; "
             f"their shapes are {list(f['jacobian'].shape)}, {list(f['ndf'].shape)}, "
-            f"{list(f['sigma'].shape)}"
+            f"{list(f['sigma'].shape)}",
+            "source",
         )
     bad = [n for n in ("theta_i", "phi_i", "ndf", "sigma", "vndf", "rgb")
            if not np.isfinite(f[n].data).all()]  # fmt: skip
     if bad:
-        raise FormatError(f"{path}: field {bad[0]!r} (at byte {f[bad[0]].offset}) is not finite")
+        raise FormatError(
+            f"{path}: field {bad[0]!r} (at byte {f[bad[0]].offset}) is not finite", "source"
+        )
     return f
 
 
@@ -320,7 +328,9 @@ def read_rgl_arrays(source) -> RglSamples:
         n_merged += merged
         parts.append((wi, wo, values, sample, np.full(len(wi), k)))
     if not parts:
-        raise FormatError(f"{path}: every incident direction (theta_i) is at the horizon")
+        raise FormatError(
+            f"{path}: every incident direction (theta_i) is at the horizon", "source"
+        )
     wi, wo, values, sample, index = (np.concatenate(a) for a in zip(*parts))
     above = wo[:, 2] > HORIZON_COS
     description = ""

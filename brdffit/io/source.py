@@ -100,7 +100,7 @@ class Source:
             raise FormatError(
                 f"{self.name} is not a UTF-8 text file (byte {exc.start} cannot be decoded); "
                 "a text format needs a text file",
-                "path",
+                "source",
             ) from None
 
 

@@ -46,7 +46,8 @@ def _unpack(raw: bytes, fmt: str, pos: int, what: str, path) -> tuple:
     if pos + size > len(raw):
         raise FormatError(
             f"{path} is truncated: the {what} needs {size} bytes at byte {pos}, "
-            f"but the file ends at byte {len(raw)}"
+            f"but the file ends at byte {len(raw)}",
+            "source",
         )
     return struct.unpack_from(fmt, raw, pos)
 
@@ -58,20 +59,22 @@ def _field_header(raw: bytes, pos: int, index: int, path) -> tuple:
     if len(name_bytes) < length:
         raise FormatError(
             f"{path} is truncated: the name of field {index} needs {length} bytes at byte "
-            f"{pos + 2}, but the file ends at byte {len(raw)}"
+            f"{pos + 2}, but the file ends at byte {len(raw)}",
+            "source",
         )
     try:
         name = name_bytes.decode("utf-8")
     except UnicodeDecodeError:
         raise FormatError(
-            f"{path}: the name of field {index} at byte {pos + 2} is not UTF-8"
+            f"{path}: the name of field {index} at byte {pos + 2} is not UTF-8", "source"
         ) from None
     pos += 2 + length
     ndim, code, offset = _unpack(raw, "<HBQ", pos, f"header of field {name!r}", path)
     if code not in DTYPES:
         raise FormatError(
             f"{path}: field {name!r} has the unknown dtype code {code} at byte {pos + 2}; "
-            "the codes are 1..11 (uint8 .. float64)"
+            "the codes are 1..11 (uint8 .. float64)",
+            "source",
         )
     shape = _unpack(raw, f"<{ndim}Q", pos + 11, f"shape of field {name!r}", path)
     return name, code, offset, shape, pos + 11 + 8 * ndim
@@ -85,11 +88,14 @@ def read_tensor_file(source) -> dict[str, TensorField]:
     if raw[:12] != MAGIC:
         raise FormatError(
             f"{path}: wrong magic at byte 0: found {raw[:12]!r}, expected {MAGIC!r}; "
-            "this is not a Mitsuba tensor file (RGL .bsdf)"
+            "this is not a Mitsuba tensor file (RGL .bsdf)",
+            "source",
         )
     version = _unpack(raw, "<BB", 12, "version", path)
     if version != (1, 0):
-        raise FormatError(f"{path}: version {version} at byte 12 is not 1.0, the one known")
+        raise FormatError(
+            f"{path}: version {version} at byte 12 is not 1.0, the one known", "source"
+        )
     (count,) = _unpack(raw, "<I", 14, "field count", path)
     fields, pos = {}, 18
     for index in range(count):
@@ -100,7 +106,8 @@ def read_tensor_file(source) -> dict[str, TensorField]:
             raise FormatError(
                 f"{path} is truncated: the data of field {name!r} ({dtype}, shape "
                 f"{list(shape)}) from byte {offset} needs the file to reach byte {end}, "
-                f"but it ends at byte {len(raw)}"
+                f"but it ends at byte {len(raw)}",
+                "source",
             )
         count_ = math.prod(shape)
         data = np.frombuffer(raw, dtype=dtype, count=count_, offset=offset).reshape(shape)

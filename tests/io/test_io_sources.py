@@ -135,3 +135,18 @@ def test_wrong_kinds_of_source_and_target_are_format_errors(tmp_path):
     with pytest.raises(FormatError, match="cannot write to a list") as e:
         write([], rgb_data(n=3), format="csv")
     assert e.value.field == "target"
+
+
+@pytest.mark.parametrize("name", ["npz", "merl", "mbsdf", "rgl"])
+def test_a_broken_binary_source_is_a_format_error_on_the_field_source(tmp_path, name):
+    raw = _file(tmp_path, name).read_bytes()
+    with pytest.raises(FormatError, match=rf"^{NAMELESS}") as caught:
+        read(raw[: len(raw) // 2], format=name)
+    assert caught.value.field == "source"  # the argument of read() at fault
+
+
+@pytest.mark.parametrize("name", ["csv", "astm", "pbrt"])
+def test_bytes_that_are_not_text_are_a_format_error_on_the_field_source(name):
+    with pytest.raises(FormatError, match=r"^<bytes> is not a UTF-8 text file \(byte 1") as e:
+        read(b"0\xff\xfe1,2\n", format=name)
+    assert e.value.field == "source"
