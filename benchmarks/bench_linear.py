@@ -174,15 +174,7 @@ def bench_fits(old, repeats: int):
     ]
     for label, params, held in fits:
         model = label.split(" ")[0]
-        data = brdffit.synthesize(
-            model,
-            params,
-            geometry="hemisphere",
-            n=800,
-            noise=0.01,
-            seed=2,
-            channels=["r", "g", "b"],
-        )
+        data = synthetic(model, params, 1.0)
         row = []
         for solver in (old, solve_bounded):
             problem_module.solve_bounded = solver
