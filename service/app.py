@@ -28,6 +28,7 @@ from brdffit.errors import BrdfFitError
 from .errors import KINDS, ApiError
 from .jobs import FitPool, JobRunner
 from .routes import router
+from .routes_web import routers as web_routers
 from .settings import Settings
 from .store import JobStore
 
@@ -186,6 +187,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.include_router(router)
+    for web_router in web_routers:  # the page at / and its routes (issue 16)
+        app.include_router(web_router)
     app.add_exception_handler(BrdfFitError, _library_error)
     app.add_exception_handler(RequestValidationError, _request_invalid)
     app.add_exception_handler(ValidationError, _request_invalid)

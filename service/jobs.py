@@ -29,6 +29,7 @@ from multiprocessing import get_context
 import brdffit
 from brdffit.errors import BrdfFitError
 
+from . import artifacts
 from .convert import finite
 from .errors import ApiError
 from .store import JobStore, data_from_bytes
@@ -85,6 +86,7 @@ def run_job(store_path: str, job_id: str, attempt: int, parent_pid: int | None =
             posterior = dict(options.get("posterior_options") or {})
             options = {**options, "posterior_options": {**posterior, "progress": reporter}}
         result = brdffit.fit(data, model, progress=reporter, **options)
+        artifacts.render(store_path, job_id, data, result)  # the page's plots (issue 16)
     except Cancelled:
         return "gone"
     except BrdfFitError as exc:

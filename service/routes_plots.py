@@ -1,0 +1,42 @@
+"""``GET /jobs/{id}/plot.png`` and ``GET /jobs/{id}/corner.png``: a job's pictures.
+
+Drawn by the job's worker when its fit is done (:mod:`service.artifacts`).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from fastapi import APIRouter, Request, Response
+
+from . import artifacts
+from .errors import ApiError
+from .schemas import ErrorOut
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["jobs"])
+PNG = {200: {"content": {"image/png": {}}, "description": "A PNG image."}}
+MISSING = {404: {"model": ErrorOut, "description": "No such job, or no such plot (yet)."}}
+
+
+@router.get("/jobs/{job_id}/{name}", response_class=Response, responses={**PNG, **MISSING})
+def job_plot(request: Request, job_id: str, name: Literal[tuple(artifacts.NAMES)]):  # type: ignore[valid-type]
+    """``plot.png``: the fit (planes of incidence and residuals); ``corner.png``: the
+    posterior's corner plot, when the job sampled it."""
+    store = request.app.state.store
+    job = store.get(job_id)
+    if job is None:
+        artifacts.forget(store.path, job_id)
+        raise ApiError(404, f"there is no job {job_id!r} (it may have been deleted)", "id")
+    png = artifacts.load(store.path, job_id, name)
+    if png is None:
+        if job["status"] in ("queued", "running"):
+            why = f"job {job_id} is {job['status']}; its plots are drawn when it is done"
+        elif name == "corner.png" and job["status"] == "done":
+            why = f"job {job_id} has no corner plot: it did not sample the posterior"
+        else:
+            why = f"job {job_id} ({job['status']}) has no {name}"
+        raise ApiError(404, why, "name")
+    return Response(png, media_type="image/png",
+                    headers={"Cache-Control": "max-age=86400"})  # fmt: skip
