@@ -92,9 +92,7 @@ class ComparisonStore:
     def get(self, comparison_id: str):
         """The row as a dict with its held-out data loaded (``test``), or None."""
         with self._connect() as db:
-            row = db.execute(
-                "SELECT * FROM comparisons WHERE id = ?", (comparison_id,)
-            ).fetchone()
+            row = db.execute("SELECT * FROM comparisons WHERE id = ?", (comparison_id,)).fetchone()
         if row is None:
             return None
         out = dict(row)

@@ -165,6 +165,6 @@ def _comparison(request: Request, comparison_id: str) -> dict:
     for key, rank in (("bic", "rank_bic"), ("heldout_rmse", "rank_heldout")):
         for entry, r in zip(entries, ranks([e.get(key) for e in entries])):
             entry[rank] = r
-    running = {"queued", "running"}
-    return {**{k: row[k] for k in ComparisonOut.model_fields if k in row},
-            "done": not any(e["status"] in running for e in entries), "entries": entries}  # fmt: skip
+    done = not any(e["status"] in ("queued", "running") for e in entries)
+    fields = {k: row[k] for k in ComparisonOut.model_fields if k in row}
+    return {**fields, "done": done, "entries": entries}

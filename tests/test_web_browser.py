@@ -39,7 +39,8 @@ pytestmark = pytest.mark.skipif(
     "(.ci/run does)",
 )
 from selenium.webdriver.common.by import By  # noqa: E402
-from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
+from selenium.webdriver.common.keys import Keys  # noqa: E402
+from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
 
 
 def free_port() -> int:
@@ -130,8 +131,10 @@ def fill_form(driver, path: Path, models, *, steps: int, seconds: int) -> None:
 
 def wait_results(driver, n: int, seconds: float = 60):
     WebDriverWait(driver, seconds).until(
-        lambda d: d.find_element(By.ID, "results").is_displayed()
-        and len(d.find_elements(By.CSS_SELECTOR, "#model-results article")) == n
+        lambda d: (
+            d.find_element(By.ID, "results").is_displayed()
+            and len(d.find_elements(By.CSS_SELECTOR, "#model-results article")) == n
+        )
     )
 
 
@@ -141,6 +144,13 @@ def cell(row, selector: str) -> str:
 
 def test_compare_three_models_with_uncertainty(server, browser):
     open_page(browser, server + "/")
+    # Every control, the model checkboxes the script made included, has a label.
+    unlabelled = browser.execute_script(
+        "return [...document.querySelectorAll('input, select')]"
+        ".filter(c => !c.labels.length).map(c => c.id || c.outerHTML)"
+    )
+    assert unlabelled == []
+    assert len(browser.find_elements(By.CSS_SELECTOR, "#model-list input")) >= 20
     fill_form(browser, WARD, MODELS, steps=300, seconds=10)
     shot(browser, "1_form")
     browser.find_element(By.ID, "submit").click()
@@ -187,16 +197,27 @@ def test_compare_three_models_with_uncertainty(server, browser):
     notes = browser.find_element(By.ID, "notes").text
     assert notes.startswith("Notes about the data"), notes
 
-    browser.find_element(By.ID, "results").location_once_scrolled_into_view
-    results = shot(browser, "3_results")
+    browser.execute_script("document.getElementById('results').scrollIntoView()")
+    shot(browser, "3_results")
     if os.environ.get("BRDFFIT_WEB_SCREENSHOT") == "docs":
-        shutil.copy(results, ROOT / "docs" / "web_results.png")
+        # The README's picture: a taller window, so that the ranking, ward's
+        # parameters and its plots show together.
+        browser.set_window_size(1280, 1500)
+        browser.execute_script("document.getElementById('results').scrollIntoView()")
+        picture = ARTIFACTS / "web_results_tall.png"
+        browser.save_screenshot(str(picture))
+        from PIL import Image  # matplotlib's dependency; a palette keeps the file small
+
+        with Image.open(picture) as image:
+            small = image.convert("RGB").quantize(colors=128)
+            small.save(ROOT / "docs" / "web_results.png", optimize=True)
 
     # Readable on a phone: nothing wider than the window, the ranking still there.
     browser.set_window_size(390, 844)
     try:
         overflow = browser.execute_script(
-            "return document.documentElement.scrollWidth - window.innerWidth")
+            "return document.documentElement.scrollWidth - window.innerWidth"
+        )
         assert overflow <= 0, f"the page is {overflow} px wider than a phone's window"
         assert browser.find_element(By.ID, "ranking").is_displayed()
         shot(browser, "4_phone")
@@ -211,8 +232,10 @@ def test_bad_file_shows_the_error_next_to_the_file(server, browser, tmp_path):
     fill_form(browser, bad, ["ward"], steps=100, seconds=5)
     browser.find_element(By.ID, "submit").click()
     error = WebDriverWait(browser, 20).until(
-        lambda d: d.find_element(By.ID, "file-error").is_displayed()
-        and d.find_element(By.ID, "file-error")
+        lambda d: (
+            d.find_element(By.ID, "file-error").is_displayed()
+            and d.find_element(By.ID, "file-error")
+        )
     )
     assert "bad.csv" in error.text and error.text.startswith("file"), error.text
     assert browser.find_element(By.ID, "file").get_attribute("aria-invalid") == "true"
@@ -223,11 +246,13 @@ def test_bad_file_shows_the_error_next_to_the_file(server, browser, tmp_path):
     # A model the service does not know: the message is beside the models' field.
     open_page(browser, server + "/")
     fill_form(browser, WARD, [], steps=100, seconds=5)
-    browser.find_element(By.ID, "models-extra").send_keys("wardd")
-    browser.find_element(By.ID, "submit").click()
+    # From the keyboard: Enter in the text field submits the form.
+    browser.find_element(By.ID, "models-extra").send_keys("wardd" + Keys.ENTER)
     error = WebDriverWait(browser, 20).until(
-        lambda d: d.find_element(By.ID, "models-error").is_displayed()
-        and d.find_element(By.ID, "models-error")
+        lambda d: (
+            d.find_element(By.ID, "models-error").is_displayed()
+            and d.find_element(By.ID, "models-error")
+        )
     )
     assert "wardd" in error.text and "ward" in error.text.replace("wardd", ""), error.text
     assert not browser.find_element(By.ID, "file-error").is_displayed()
@@ -243,14 +268,19 @@ def test_a_reload_keeps_following_the_job(server, browser):
     url = browser.current_url
     status = "#progress-table tbody tr td"
     WebDriverWait(browser, 20).until(
-        lambda d: d.find_elements(By.CSS_SELECTOR, status)
-        and d.find_element(By.CSS_SELECTOR, status).text == "running"
+        lambda d: (
+            d.find_elements(By.CSS_SELECTOR, status)
+            and d.find_element(By.CSS_SELECTOR, status).text == "running"
+        )
     )
     browser.refresh()
     WebDriverWait(browser, 20).until(
         lambda d: d.execute_script("return document.body.dataset.ready === 'true'")
     )
     assert browser.current_url == url
+    WebDriverWait(browser, 20).until(
+        lambda d: d.find_elements(By.CSS_SELECTOR, "#progress-table tbody tr")
+    )
     rows = browser.find_elements(By.CSS_SELECTOR, "#progress-table tbody tr")
     assert [r.find_element(By.TAG_NAME, "th").text for r in rows] == ["ggx"]
     assert rows[0].find_element(By.TAG_NAME, "td").text == "running"

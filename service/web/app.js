@@ -339,7 +339,7 @@ function renderModel(job) {
   article.append(el("p", { text: `${r.loss_name} loss ${fmt(r.loss)}, RMSE ${fmt(r.metrics.rmse)}, ${r.n_evals} evaluations in ${fmt(r.seconds, 3)} s; ${r.message}.` + (post ? ` Posterior: ${post.message}.` : "") }));
   article.append(el("div", { class: "scroll" }, el("table", { class: "params" },
     el("caption", { text: post ? "Parameters: the fit, and the posterior median with its 16–84 % interval" : "Parameters of the fit (uncertainty was not asked for)" }),
-    el("thead", {}, el("tr", {}, ...["Parameter", "Fit", "Median", "Interval"].map((t) => el("th", { scope: "col", text: t })))),
+    el("thead", {}, el("tr", {}, ...["Parameter", "Fit", "Median", "Interval"].map((t, i) => el("th", { scope: "col", class: i ? "num" : null, text: t })))),
     el("tbody", {}, ...paramRows(r)))));
   const plots = el("div", { class: "plots" }, figure(`/jobs/${job.id}/plot.png`, `Fit of ${job.model}: measured and fitted reflectance in the planes of incidence, and the residuals`, "The fit and its residuals"));
   if (post) plots.append(figure(`/jobs/${job.id}/corner.png`, `Corner plot of the posterior of ${job.model}`, "The posterior: every pair of parameters"));
