@@ -18,6 +18,7 @@ import brdffit
 from brdffit.errors import BrdfFitError
 
 # Service internals, imported in this one place (issue 16).
+from . import artifacts
 from .comparisons import ComparisonStore, heldout_rmse, ranks
 from .convert import fit_kwargs, read_upload
 from .errors import ApiError
@@ -126,6 +127,7 @@ def create_comparison(
     jobs = []
     for name in names:
         job = state.store.create(name, kwargs, blob, notes)
+        artifacts.want(state.store.path, job["id"])
         state.runner.submit(job["id"], job["attempt"])
         jobs.append(job["id"])
     comparisons = ComparisonStore(state.store.path)

@@ -1,6 +1,8 @@
 """``GET /jobs/{id}/plot.png`` and ``GET /jobs/{id}/corner.png``: a job's pictures.
 
-Drawn by the job's worker when its fit is done (:mod:`service.artifacts`).
+The fit plot of any job that is done, drawn at the first request and kept; the
+corner plot, drawn by the worker of a job of ``POST /comparisons/file``
+(:mod:`service.artifacts`).
 """
 
 from __future__ import annotations
@@ -22,21 +24,28 @@ MISSING = {404: {"model": ErrorOut, "description": "No such job, or no such plot
 
 @router.get("/jobs/{job_id}/{name}", response_class=Response, responses={**PNG, **MISSING})
 def job_plot(request: Request, job_id: str, name: Literal[tuple(artifacts.NAMES)]):  # type: ignore[valid-type]
-    """``plot.png``: the fit (planes of incidence and residuals); ``corner.png``: the
-    posterior's corner plot, when the job sampled it."""
+    """``plot.png``: the fit (planes of incidence and residuals) of a job that is done;
+    ``corner.png``: the posterior's corner plot, for the jobs of a comparison that
+    sampled it."""
     store = request.app.state.store
     job = store.get(job_id)
     if job is None:
         artifacts.forget(store.path, job_id)
         raise ApiError(404, f"there is no job {job_id!r} (it may have been deleted)", "id")
-    png = artifacts.load(store.path, job_id, name)
+    done = job["status"] == "done"
+    if name == "plot.png":
+        png = artifacts.fit_plot(store.path, job) if done else None
+    else:
+        png = artifacts.load(store.path, job_id, name)
     if png is None:
         if job["status"] in ("queued", "running"):
-            why = f"job {job_id} is {job['status']}; its plots are drawn when it is done"
-        elif name == "corner.png" and job["status"] == "done":
+            why = f"job {job_id} is {job['status']}; its plots can be drawn once it is done"
+        elif name == "corner.png" and done and not job["result"].get("posterior"):
             why = f"job {job_id} has no corner plot: it did not sample the posterior"
+        elif name == "corner.png" and done:
+            why = (f"job {job_id} has no corner plot: its worker draws one only for the jobs "
+                   "of POST /comparisons/file (the web page)")  # fmt: skip
         else:
             why = f"job {job_id} ({job['status']}) has no {name}"
         raise ApiError(404, why, "name")
-    return Response(png, media_type="image/png",
-                    headers={"Cache-Control": "max-age=86400"})  # fmt: skip
+    return Response(png, media_type="image/png", headers={"Cache-Control": "max-age=3600"})

@@ -209,7 +209,7 @@ def test_compare_three_models_with_uncertainty(server, browser):
         from PIL import Image  # matplotlib's dependency; a palette keeps the file small
 
         with Image.open(picture) as image:
-            small = image.convert("RGB").quantize(colors=128)
+            small = image.convert("RGB").quantize(colors=256)
             small.save(ROOT / "docs" / "web_results.png", optimize=True)
 
     # Readable on a phone: nothing wider than the window, the ranking still there.

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
+from job_polling import wait_for
 
 import brdffit
 import brdffit.models
@@ -90,7 +91,7 @@ def test_nothing_is_fetched_from_elsewhere():
     script = page_file("app.js").decode()
     calls = re.findall(r"(?:fetch|getJSON)\(([^,)]+)", script)
     assert len(calls) >= 6
-    assert all(re.match(r"""["`]/""", c) or c in ("url",) for c in calls), calls
+    assert all(re.match(r"""["`]/""", c) or c in ("url", "src") for c in calls), calls
 
 
 def test_the_page_files_ship_as_package_data():
@@ -192,6 +193,20 @@ def test_a_comparison_matches_brdffit_compare(client):
     assert client.get(f"/comparisons/{comparison['id']}").json()["entries"][0]["status"] == (
         "deleted"
     )
+
+
+def test_a_plain_job_has_a_fit_plot_but_no_corner_plot(client):
+    options = '{"uncertainty": true, "posterior_options": {"steps": 100}}'
+    answer = client.post("/jobs/file", files={"file": ("ward.csv", WARD.read_bytes())},
+                         data={"model": "ward", "options": options})  # fmt: skip
+    assert answer.status_code == 202, answer.text
+    job = wait_for(client, answer.json()["id"])
+    assert job["status"] == "done" and job["result"]["posterior"]
+    plot = client.get(f"/jobs/{job['id']}/plot.png")
+    assert plot.status_code == 200 and plot.content.startswith(b"\x89PNG\r\n\x1a\n")
+    assert client.get(f"/jobs/{job['id']}/plot.png").content == plot.content  # kept
+    corner = client.get(f"/jobs/{job['id']}/corner.png")
+    assert corner.status_code == 404 and "POST /comparisons/file" in corner.json()["message"]
 
 
 def test_unknown_comparison_and_plot_names(client):

@@ -323,7 +323,14 @@ function paramRows(result) {
 }
 
 function figure(src, alt, caption) {
-  return el("figure", {}, el("a", { href: src }, el("img", { src, alt, loading: "eager" })), el("figcaption", { text: caption }));
+  const img = el("img", { src, alt, loading: "eager" });
+  const note = el("figcaption", { text: caption });
+  img.addEventListener("error", async () => {  // say why, from the service's JSON
+    let why = "the picture could not be loaded";
+    try { why = (await (await fetch(src)).json()).message || why; } catch (e) { /* keep */ }
+    img.closest("a").replaceWith(el("p", { class: "hint", text: `No picture: ${why}.` }));
+  });
+  return el("figure", {}, el("a", { href: src }, img), note);
 }
 
 function renderModel(job) {
