@@ -40,7 +40,7 @@ pytestmark = pytest.mark.skipif(
 )
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.common.keys import Keys  # noqa: E402
-from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
+from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
 
 
 def free_port() -> int:
@@ -115,8 +115,12 @@ def open_page(driver, url: str) -> None:
     )
 
 
-def fill_form(driver, path: Path, models, *, steps: int, seconds: int) -> None:
-    driver.find_element(By.ID, "file").send_keys(str(path))
+def fill_form(driver, path: Path | str, models, *, steps: int, seconds: int) -> None:
+    """``path``: a file to upload with the file picker, or the name of an example."""
+    if isinstance(path, Path):
+        driver.find_element(By.ID, "file").send_keys(str(path))
+    else:
+        Select(driver.find_element(By.ID, "example")).select_by_value(path)
     driver.find_element(By.ID, "clear-models").click()
     for name in models:
         driver.find_element(By.ID, f"m-{name}").click()
@@ -212,6 +216,11 @@ def test_compare_three_models_with_uncertainty(server, browser):
             small = image.convert("RGB").quantize(colors=256)
             small.save(ROOT / "docs" / "web_results.png", optimize=True)
 
+    # The recent jobs list them, done.
+    recent = browser.find_elements(By.CSS_SELECTOR, "#recent-table tbody tr")
+    assert [r.find_elements(By.TAG_NAME, "td")[2].text for r in recent[:3]] == ["done"] * 3
+    assert sorted(r.find_elements(By.TAG_NAME, "td")[1].text for r in recent[:3]) == sorted(MODELS)
+
     # Readable on a phone: nothing wider than the window, the ranking still there.
     browser.set_window_size(390, 844)
     try:
@@ -259,10 +268,23 @@ def test_bad_file_shows_the_error_next_to_the_file(server, browser, tmp_path):
     shot(browser, "6_bad_model")
 
 
+def test_dropping_a_file_chooses_it(server, browser):
+    open_page(browser, server + "/")
+    browser.execute_script(
+        """const drop = new DataTransfer();
+        drop.items.add(new File(["theta_i,phi_i,theta_o,phi_o,value"], "dropped.csv"));
+        const zone = document.getElementById("drop");
+        zone.dispatchEvent(new DragEvent("dragover", {dataTransfer: drop, bubbles: true}));
+        zone.dispatchEvent(new DragEvent("drop", {dataTransfer: drop, bubbles: true}));"""
+    )
+    assert browser.find_element(By.ID, "chosen").text == "Chosen: dropped.csv (33 bytes)"
+
+
 def test_a_reload_keeps_following_the_job(server, browser):
     open_page(browser, server + "/")
-    # A posterior of many steps, stopped by its time budget: a job of about 6 s.
-    fill_form(browser, WARD, ["ggx"], steps=1_000_000, seconds=5)
+    # The bundled example this time, and a posterior of many steps stopped by its
+    # time budget: a job of about 6 s.
+    fill_form(browser, "ward.csv", ["ggx"], steps=1_000_000, seconds=5)
     browser.find_element(By.ID, "submit").click()
     WebDriverWait(browser, 20).until(lambda d: "comparison=" in d.current_url)
     url = browser.current_url
