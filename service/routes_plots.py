@@ -7,8 +7,6 @@ corner plot, drawn by the worker of a job of ``POST /comparisons/file``
 
 from __future__ import annotations
 
-from typing import Literal
-
 from fastapi import APIRouter, Request, Response
 
 from . import artifacts
@@ -22,11 +20,20 @@ PNG = {200: {"content": {"image/png": {}}, "description": "A PNG image."}}
 MISSING = {404: {"model": ErrorOut, "description": "No such job, or no such plot (yet)."}}
 
 
-@router.get("/jobs/{job_id}/{name}", response_class=Response, responses={**PNG, **MISSING})
-def job_plot(request: Request, job_id: str, name: Literal[tuple(artifacts.NAMES)]):  # type: ignore[valid-type]
-    """``plot.png``: the fit (planes of incidence and residuals) of a job that is done;
-    ``corner.png``: the posterior's corner plot, for the jobs of a comparison that
-    sampled it."""
+@router.get("/jobs/{job_id}/plot.png", response_class=Response, responses={**PNG, **MISSING})
+def job_fit_plot(request: Request, job_id: str):
+    """The fit (planes of incidence, measured and fitted, and the residuals) of a job
+    that is done."""
+    return _plot(request, job_id, "plot.png")
+
+
+@router.get("/jobs/{job_id}/corner.png", response_class=Response, responses={**PNG, **MISSING})
+def job_corner_plot(request: Request, job_id: str):
+    """The posterior's corner plot, for the jobs of a comparison that sampled it."""
+    return _plot(request, job_id, "corner.png")
+
+
+def _plot(request: Request, job_id: str, name: str) -> Response:
     store = request.app.state.store
     job = store.get(job_id)
     if job is None:

@@ -212,4 +212,4 @@ def test_a_plain_job_has_a_fit_plot_but_no_corner_plot(client):
 def test_unknown_comparison_and_plot_names(client):
     assert client.get("/comparisons/nope").json()["field"] == "id"
     assert client.get("/jobs/nope/plot.png").status_code == 404
-    assert client.get("/jobs/nope/other.png").status_code == 422
+    assert client.get("/jobs/nope/other.png").status_code == 404

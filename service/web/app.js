@@ -234,6 +234,7 @@ async function followComparison(id) {
 
 async function followJobs(ids, comparisonId) {
   $("#progress").hidden = false;
+  $("#progress").scrollIntoView({ block: "start" });
   const poll = async () => {
     await Promise.all(ids.filter((id) => !TERMINAL.has((state.jobs[id] || {}).status)).map(async (id) => {
       try { state.jobs[id] = await getJSON(`/jobs/${id}`); }
