@@ -20,6 +20,7 @@ from .errors import install_handlers
 from .jobs import FitPool, JobRunner
 from .middleware import BodyLimit
 from .routes import router
+from .routes.web import routers as web_routers
 from .settings import Settings
 from .store import JobStore
 
@@ -75,6 +76,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.include_router(router)
     install_handlers(app)
+    for web_router in web_routers:  # the page at / and its routes
+        app.include_router(web_router)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     return app
 

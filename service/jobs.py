@@ -30,6 +30,7 @@ import brdffit
 from brdffit.errors import BrdfFitError
 from brdffit.jsonable import jsonable
 
+from . import artifacts
 from .errors import ApiError
 from .store import JobStore, data_from_bytes
 
@@ -86,6 +87,7 @@ def run_job(store_path: str, job_id: str, attempt: int, parent_pid: int | None =
             posterior = dict(options.get("posterior_options") or {})
             options = {**options, "posterior_options": {**posterior, "progress": reporter}}
         result = brdffit.fit(data, model, progress=reporter, **options)
+        artifacts.render(store_path, job_id, result)  # a corner plot, if asked (issue 16)
     except Cancelled:
         return "gone"
     except BrdfFitError as exc:

@@ -1,0 +1,164 @@
+"""``POST /comparisons/file``, ``GET /comparisons/{id}``: several models, one dataset.
+
+What :func:`brdffit.compare` does in one call, as jobs the page (or any client)
+can follow one by one: see :mod:`service.comparisons`. Each model's fit is an
+ordinary job (``GET /jobs/{id}``: progress, result, plots); the comparison
+answers the ranks by BIC and by held-out RMSE of the jobs done.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, File, Form, Query, Response, UploadFile
+from pydantic import BaseModel, Field
+
+import brdffit
+from brdffit.errors import BrdfFitError
+
+# Service internals, imported in this one place (issue 16).
+from .. import artifacts
+from ..comparisons import ComparisonStore, heldout_rmse, ranks
+from ..convert import fit_kwargs, read_upload
+from ..deps import RunnerDep, SettingsDep, StoreDep
+from ..errors import ApiError
+from ..schemas import ErrorOut
+from ..store import data_to_bytes
+from .common import form_options
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["comparisons"])
+MAX_MODELS = 12
+ERRORS = {
+    404: {"model": ErrorOut, "description": "No such comparison."},
+    413: {"model": ErrorOut, "description": "The body is larger than the server takes."},
+    422: {"model": ErrorOut, "description": "Input that cannot be used; `field` says which."},
+}
+
+
+class EntryOut(BaseModel):
+    model: str
+    job: str = Field(description="The job fitting this model: GET /jobs/{job}.")
+    status: str = Field(description="The job's status, or `deleted`.")
+    bic: float | None = Field(None, description="BIC of the fit on the training part.")
+    aic: float | None = None
+    heldout_rmse: float | None = Field(None, description="RMSE on the held-out samples.")
+    rank_bic: int | None = Field(None, description="1 = lowest BIC among the jobs done.")
+    rank_heldout: int | None = Field(None, description="1 = lowest held-out RMSE.")
+
+
+class ComparisonOut(BaseModel):
+    id: str
+    created: str
+    source: str = Field(description="The uploaded file's name.")
+    test_fraction: float
+    seed: int
+    n_train: int
+    n_test: int
+    done: bool = Field(description="Every job has finished (done, failed or interrupted).")
+    entries: list[EntryOut] = Field(description="In the order the models were given.")
+
+
+class ComparisonBrief(BaseModel):
+    id: str
+    created: str
+    source: str
+    models: list[str]
+    jobs: list[str]
+
+
+def _models(text: str) -> list[str]:
+    names = list(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+    if not names or len(names) > MAX_MODELS:
+        raise ApiError(422, f"models={text!r}: give 1 to {MAX_MODELS} model names separated "
+                       "by commas", "models")  # fmt: skip
+    for name in names:
+        try:
+            brdffit.get_model(name)
+        except BrdfFitError as exc:
+            raise ApiError(422, str(exc), "models", type(exc).__name__) from None
+    return names
+
+
+def _read(file: UploadFile, format: str | None, limit: int):
+    """The uploaded data; a fault in its content is under ``file.`` (``file.header``...)."""
+    try:
+        return read_upload(file.file.read(), file.filename, format, None, None, limit)
+    except BrdfFitError as exc:
+        field = exc.field if exc.field in ("file", "format") else f"file.{exc.field}"
+        raise ApiError(422, str(exc), field, type(exc).__name__) from None
+
+
+ModelsField = Annotated[str, Form(max_length=2000, description="Model names: ward,ggx,blinn")]
+FractionField = Annotated[float, Form(gt=0, le=0.9, description="Share of samples held out.")]
+OptionsField = Annotated[str, Form(max_length=100_000, description="FitOptions as JSON.")]
+
+
+@router.post("/comparisons/file", status_code=202, response_model=ComparisonOut,
+             responses=ERRORS)  # fmt: skip
+def create_comparison(
+    response: Response,
+    settings: SettingsDep,
+    store: StoreDep,
+    runner: RunnerDep,
+    file: Annotated[UploadFile, File(description="The data file, as for POST /jobs/file.")],
+    models: ModelsField,
+    format: Annotated[str | None, Form(max_length=20)] = None,
+    options: OptionsField = "{}",
+    test_fraction: FractionField = 0.2,
+):
+    """Split the file's data (seeded by ``options.seed``), queue one job per model on the
+    training part, keep the held-out part; answers 202 with the comparison."""
+    names, fit_options = _models(models), form_options(options)
+    data, notes = _read(file, format, settings.max_samples)
+    train, test = data.split(test_fraction, seed=fit_options.seed)
+    kwargs = fit_kwargs(fit_options, settings.job_timeout)
+    for name in names:  # bad options are a 422 now, not a failed job later
+        brdffit.check_fit(train, name, **kwargs)
+    blob = data_to_bytes(train)
+    jobs = []
+    for name in names:
+        job = store.create(name, kwargs, blob, notes)
+        artifacts.want(store.path, job["id"])
+        runner.submit(job["id"], job["attempt"])
+        jobs.append(job["id"])
+    comparisons = ComparisonStore(store.path)
+    source = file.filename or "upload"
+    comparison_id = comparisons.create(source, names, jobs, test, test_fraction,
+                                       fit_options.seed, train.n)  # fmt: skip
+    response.headers["Location"] = f"/comparisons/{comparison_id}"
+    return _comparison(store, comparison_id)
+
+
+@router.get("/comparisons", response_model=list[ComparisonBrief], responses=ERRORS)
+def list_comparisons(store: StoreDep, limit: int = Query(20, ge=1, le=1000)):
+    """The most recent comparisons, newest first."""
+    return ComparisonStore(store.path).list(limit)
+
+
+@router.get("/comparisons/{comparison_id}", response_model=ComparisonOut, responses=ERRORS)
+def get_comparison(comparison_id: str, store: StoreDep):
+    """Each model's job status, BIC, held-out RMSE and ranks (among the jobs done)."""
+    return _comparison(store, comparison_id)
+
+
+def _comparison(store, comparison_id: str) -> dict:
+    row = ComparisonStore(store.path).get(comparison_id)
+    if row is None:
+        raise ApiError(404, f"there is no comparison {comparison_id!r}", "id")
+    entries = []
+    for name, job_id in zip(row["models"], row["jobs"]):
+        job = store.get(job_id)
+        entry = {"model": name, "job": job_id, "status": job["status"] if job else "deleted"}
+        result = (job or {}).get("result")
+        if result:
+            entry["bic"], entry["aic"] = result["metrics"].get("bic"), result["metrics"].get("aic")
+            entry["heldout_rmse"] = heldout_rmse(name, result["params"], row["test"])
+        entries.append(entry)
+    for key, rank in (("bic", "rank_bic"), ("heldout_rmse", "rank_heldout")):
+        for entry, r in zip(entries, ranks([e.get(key) for e in entries])):
+            entry[rank] = r
+    done = not any(e["status"] in ("queued", "running") for e in entries)
+    fields = {k: row[k] for k in ComparisonOut.model_fields if k in row}
+    return {**fields, "done": done, "entries": entries}

@@ -1,0 +1,315 @@
+"""The web page in a real browser: headless Chromium (Debian's ``chromium`` and
+``chromium-driver``) driven by Selenium, against the service on a free loopback port.
+
+Nothing is downloaded at test time: the driver and the browser are the system's
+(``.ci/run`` installs them when missing); selenium-manager is never asked.
+Screenshots of each state go to ``tests/artifacts/`` (not committed); with
+``BRDFFIT_WEB_SCREENSHOT=docs`` the results at 1280x800 also go to
+``docs/web_results.png``, the README's picture.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+WARD = ROOT / "data_synthetic" / "ward.csv"
+TRUTH = ROOT / "data_synthetic" / "truth.json"
+ARTIFACTS = ROOT / "tests" / "artifacts"
+CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
+MODELS = ["ward", "ggx", "blinn"]
+
+webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed "
+                                "(pip install -e '.[test]')")  # fmt: skip
+pytestmark = pytest.mark.skipif(
+    not (CHROMIUM.exists() and CHROMEDRIVER.exists()),
+    reason=f"{CHROMIUM} or {CHROMEDRIVER} is absent: apt-get install chromium chromium-driver "
+    "(.ci/run does)",
+)
+from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.common.keys import Keys  # noqa: E402
+from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    """The service under uvicorn in its own process group, with a fresh store."""
+    folder = tmp_path_factory.mktemp("web")
+    port = free_port()
+    env = {**os.environ, "BRDFFIT_STORE_PATH": str(folder / "jobs.sqlite3"),
+           "BRDFFIT_WORKERS": "2", "PYTHONPATH": os.pathsep.join(
+               [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])}  # fmt: skip
+    log = open(folder / "server.log", "wb")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "uvicorn", "brdffit_service.app:app", "--host", "127.0.0.1",
+         "--port", str(port), "--log-level", "warning"],
+        env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+    )  # fmt: skip
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 60
+    while True:
+        assert process.poll() is None, (folder / "server.log").read_text()
+        try:
+            if httpx.get(url + "/health").status_code == 200:
+                break
+        except httpx.TransportError:
+            assert time.monotonic() < deadline, "the service did not start"
+            time.sleep(0.2)
+    yield url
+    os.killpg(process.pid, signal.SIGTERM)
+    try:
+        process.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+    log.close()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from selenium.webdriver.chrome.service import Service
+
+    profile = tempfile.mkdtemp(prefix="brdffit-chromium-")
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                 "--no-first-run", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage",
+                 f"--user-data-dir={profile}", "--window-size=1280,800"):  # fmt: skip
+        options.add_argument(flag)
+    driver = webdriver.Chrome(service=Service(executable_path=str(CHROMEDRIVER)), options=options)
+    driver.set_window_size(1280, 800)
+    ARTIFACTS.mkdir(exist_ok=True)
+    yield driver
+    driver.quit()
+    shutil.rmtree(profile, ignore_errors=True)
+
+
+def shot(driver, name: str) -> Path:
+    path = ARTIFACTS / f"web_{name}.png"
+    driver.save_screenshot(str(path))
+    return path
+
+
+def open_page(driver, url: str) -> None:
+    driver.get(url)
+    WebDriverWait(driver, 20).until(
+        lambda d: d.execute_script("return document.body.dataset.ready === 'true'")
+    )
+
+
+def fill_form(driver, path: Path | str, models, *, steps: int, seconds: int) -> None:
+    """``path``: a file to upload with the file picker, or the name of an example."""
+    if isinstance(path, Path):
+        driver.find_element(By.ID, "file").send_keys(str(path))
+    else:
+        Select(driver.find_element(By.ID, "example")).select_by_value(path)
+    driver.find_element(By.ID, "clear-models").click()
+    for name in models:
+        driver.find_element(By.ID, f"m-{name}").click()
+    if not driver.find_element(By.ID, "uncertainty").is_selected():
+        driver.find_element(By.ID, "uncertainty").click()
+    driver.find_element(By.TAG_NAME, "summary").click()
+    for field, value in (("steps", steps), ("timeout", seconds)):
+        box = driver.find_element(By.ID, field)
+        box.clear()
+        box.send_keys(str(value))
+
+
+def wait_results(driver, n: int, seconds: float = 60):
+    WebDriverWait(driver, seconds).until(
+        lambda d: (
+            d.find_element(By.ID, "results").is_displayed()
+            and len(d.find_elements(By.CSS_SELECTOR, "#model-results article")) == n
+        )
+    )
+
+
+def cell(row, selector: str) -> str:
+    return row.find_element(By.CSS_SELECTOR, selector).text
+
+
+def test_compare_three_models_with_uncertainty(server, browser):
+    open_page(browser, server + "/")
+    # Every control, the model checkboxes the script made included, has a label.
+    unlabelled = browser.execute_script(
+        "return [...document.querySelectorAll('input, select')]"
+        ".filter(c => !c.labels.length).map(c => c.id || c.outerHTML)"
+    )
+    assert unlabelled == []
+    assert len(browser.find_elements(By.CSS_SELECTOR, "#model-list input")) >= 20
+    fill_form(browser, WARD, MODELS, steps=300, seconds=10)
+    shot(browser, "1_form")
+    browser.find_element(By.ID, "submit").click()
+    WebDriverWait(browser, 20).until(lambda d: "comparison=" in d.current_url)
+    WebDriverWait(browser, 20).until(
+        lambda d: len(d.find_elements(By.CSS_SELECTOR, "#progress-table tbody tr")) == 3
+    )
+    shot(browser, "2_progress")
+    wait_results(browser, 3)
+
+    # The ranking: every model done, ward (the model that made the data) first both ways.
+    rows = browser.find_elements(By.CSS_SELECTOR, "#ranking tbody tr")
+    assert sorted(r.get_attribute("data-model") for r in rows) == sorted(MODELS)
+    assert [cell(r, "td:last-child") for r in rows] == ["done"] * 3
+    assert rows[0].get_attribute("data-model") == "ward"
+    assert (cell(rows[0], ".rank-heldout"), cell(rows[0], ".rank-bic")) == ("1", "1")
+    assert sorted(cell(r, ".rank-heldout") for r in rows) == ["1", "2", "3"]
+
+    # Ward's parameters against the truth that made the file: 1 % noise, so each
+    # fitted value within 3 % of the truth, and the truth within 4 posterior sigmas.
+    truth = json.loads(TRUTH.read_text())["files"]["ward.csv"]
+    expected = {}
+    for name, value in truth["params"].items():
+        if isinstance(value, list):
+            expected.update({f"{name}[{c}]": v for c, v in zip(truth["channels"], value)})
+        else:
+            expected[name] = value
+    article = browser.find_element(By.CSS_SELECTOR, "#model-results article[data-model=ward]")
+    for key, value in expected.items():
+        row = article.find_element(By.CSS_SELECTOR, f'tr[data-param="{key}"]')
+        fitted = float(row.find_element(By.CSS_SELECTOR, ".value").get_attribute("data-value"))
+        interval = row.find_element(By.CSS_SELECTOR, ".interval")
+        p16, p84 = (float(interval.get_attribute(a)) for a in ("data-p16", "data-p84"))
+        assert abs(fitted - value) <= 0.03 * value, (key, fitted, value)
+        assert abs(fitted - value) <= 4 * (p84 - p16) / 2, (key, fitted, value, p16, p84)
+
+    # Every picture loaded: a fit plot per model and a corner plot per posterior.
+    for img in browser.find_elements(By.CSS_SELECTOR, "#model-results img"):
+        browser.execute_script("arguments[0].scrollIntoView()", img)
+    WebDriverWait(browser, 30).until(lambda d: d.execute_script(
+        "return [...document.images].every(i => i.complete)"))  # fmt: skip
+    widths = browser.execute_script("return [...document.images].map(i => i.naturalWidth)")
+    assert len(widths) == 6 and all(w > 0 for w in widths), widths
+    notes = browser.find_element(By.ID, "notes").text
+    assert notes.startswith("Notes about the data"), notes
+
+    browser.execute_script("document.getElementById('results').scrollIntoView()")
+    shot(browser, "3_results")
+    if os.environ.get("BRDFFIT_WEB_SCREENSHOT") == "docs":
+        # The README's picture: a taller window, so that the ranking, ward's
+        # parameters and its plots show together.
+        browser.set_window_size(1280, 1500)
+        browser.execute_script("document.getElementById('results').scrollIntoView()")
+        picture = ARTIFACTS / "web_results_tall.png"
+        browser.save_screenshot(str(picture))
+        from PIL import Image  # matplotlib's dependency; a palette keeps the file small
+
+        with Image.open(picture) as image:
+            small = image.convert("RGB").quantize(colors=256)
+            small.save(ROOT / "docs" / "web_results.png", optimize=True)
+
+    # The recent jobs list them, done.
+    recent = browser.find_elements(By.CSS_SELECTOR, "#recent-table tbody tr")
+    assert [r.find_elements(By.TAG_NAME, "td")[2].text for r in recent[:3]] == ["done"] * 3
+    assert sorted(r.find_elements(By.TAG_NAME, "td")[1].text for r in recent[:3]) == sorted(MODELS)
+
+    # Readable on a phone: nothing wider than the window, the ranking still there.
+    browser.set_window_size(390, 844)
+    try:
+        overflow = browser.execute_script(
+            "return document.documentElement.scrollWidth - window.innerWidth"
+        )
+        assert overflow <= 0, f"the page is {overflow} px wider than a phone's window"
+        assert browser.find_element(By.ID, "ranking").is_displayed()
+        shot(browser, "4_phone")
+    finally:
+        browser.set_window_size(1280, 800)
+
+
+def test_bad_file_shows_the_error_next_to_the_file(server, browser, tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("this is not,a measurement\n1,2\n")
+    open_page(browser, server + "/")
+    fill_form(browser, bad, ["ward"], steps=100, seconds=5)
+    browser.find_element(By.ID, "submit").click()
+    error = WebDriverWait(browser, 20).until(
+        lambda d: (
+            d.find_element(By.ID, "file-error").is_displayed()
+            and d.find_element(By.ID, "file-error")
+        )
+    )
+    assert "bad.csv" in error.text and error.text.startswith("file"), error.text
+    assert browser.find_element(By.ID, "file").get_attribute("aria-invalid") == "true"
+    assert not browser.find_element(By.ID, "models-error").is_displayed()
+    assert "comparison=" not in browser.current_url
+    shot(browser, "5_bad_file")
+
+    # A model the service does not know: the message is beside the models' field.
+    open_page(browser, server + "/")
+    fill_form(browser, WARD, [], steps=100, seconds=5)
+    # From the keyboard: Enter in the text field submits the form.
+    browser.find_element(By.ID, "models-extra").send_keys("wardd" + Keys.ENTER)
+    error = WebDriverWait(browser, 20).until(
+        lambda d: (
+            d.find_element(By.ID, "models-error").is_displayed()
+            and d.find_element(By.ID, "models-error")
+        )
+    )
+    assert "wardd" in error.text and "ward" in error.text.replace("wardd", ""), error.text
+    assert not browser.find_element(By.ID, "file-error").is_displayed()
+    shot(browser, "6_bad_model")
+
+
+def test_dropping_a_file_chooses_it(server, browser):
+    open_page(browser, server + "/")
+    browser.execute_script(
+        """const drop = new DataTransfer();
+        drop.items.add(new File(["theta_i,phi_i,theta_o,phi_o,value"], "dropped.csv"));
+        const zone = document.getElementById("drop");
+        zone.dispatchEvent(new DragEvent("dragover", {dataTransfer: drop, bubbles: true}));
+        zone.dispatchEvent(new DragEvent("drop", {dataTransfer: drop, bubbles: true}));"""
+    )
+    assert browser.find_element(By.ID, "chosen").text == "Chosen: dropped.csv (33 bytes)"
+
+
+def test_a_reload_keeps_following_the_job(server, browser):
+    open_page(browser, server + "/")
+    # The bundled example this time, and a posterior of many steps stopped by its
+    # time budget: a job of about 6 s.
+    fill_form(browser, "ward.csv", ["ggx"], steps=1_000_000, seconds=5)
+    browser.find_element(By.ID, "submit").click()
+    WebDriverWait(browser, 20).until(lambda d: "comparison=" in d.current_url)
+    url = browser.current_url
+    status = "#progress-table tbody tr td"
+    WebDriverWait(browser, 20).until(
+        lambda d: (
+            d.find_elements(By.CSS_SELECTOR, status)
+            and d.find_element(By.CSS_SELECTOR, status).text == "running"
+        )
+    )
+    browser.refresh()
+    WebDriverWait(browser, 20).until(
+        lambda d: d.execute_script("return document.body.dataset.ready === 'true'")
+    )
+    assert browser.current_url == url
+    WebDriverWait(browser, 20).until(
+        lambda d: d.find_elements(By.CSS_SELECTOR, "#progress-table tbody tr")
+    )
+    rows = browser.find_elements(By.CSS_SELECTOR, "#progress-table tbody tr")
+    assert [r.find_element(By.TAG_NAME, "th").text for r in rows] == ["ggx"]
+    assert rows[0].find_element(By.TAG_NAME, "td").text == "running"
+    shot(browser, "7_reloaded")
+    # Progress keeps coming without a reload: the posterior's steps are shown.
+    WebDriverWait(browser, 20).until(
+        lambda d: "posterior, step" in d.find_element(By.ID, "progress-table").text
+    )
+    wait_results(browser, 1, seconds=40)
+    assert browser.find_element(By.CSS_SELECTOR, "#ranking tbody tr td:last-child").text == "done"
