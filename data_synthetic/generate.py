@@ -105,6 +105,22 @@ PARAMS = {
             "f0": 0.9,
         }
     },
+    "gltf_pbr": {"params": {"base_color": RED, "metallic": 0.25, "roughness": 0.4}},
+    "gltf_pbr_anisotropic": {
+        "params": {
+            "base_color": [0.95, 0.64, 0.54],
+            "metallic": 0.9,
+            "roughness": 0.35,
+            "anisotropy_strength": 0.6,
+            "anisotropy_rotation": 0.4,
+        }
+    },
+    "mitsuba_roughconductor": {
+        "params": {"specular_reflectance": [0.95, 0.64, 0.54], "alpha": 0.15}
+    },
+    "mitsuba_roughconductor_anisotropic": {
+        "params": {"specular_reflectance": [0.91, 0.92, 0.92], "alpha_u": 0.08, "alpha_v": 0.25}
+    },
     # Wave optics: four wavelengths (channels named 400nm...), the material
     # constants eta, k and the aperture at the model's defaults (held in fits).
     "he": {

@@ -5,7 +5,7 @@ from __future__ import annotations
 import difflib
 
 from ..errors import ModelError
-from . import anisotropic, empirical, microfacet, renderers, wave
+from . import anisotropic, empirical, microfacet, renderer_native, renderers, wave
 from .base import Classification, Design, Model, Param
 
 __all__ = ["REGISTRY", "get_model", "list_models", "Model", "Param", "Classification", "Design"]
@@ -18,6 +18,7 @@ REGISTRY: dict[str, Model] = {
         *renderers.MODELS,
         *anisotropic.MODELS,
         *wave.MODELS,
+        *renderer_native.MODELS,
     )
 }
 
