@@ -2,6 +2,9 @@
 
 from .compare import compare
 from .errors import BrdfFitError, DataError, FitError, FormatError, ModelError, ParameterError
+
+# brdffit.export is the function; import the package's modules with `from brdffit.export.X import`.
+from .export import export, export_targets
 from .fitting import fit
 from .geometry import Geometry
 from .io import read, write
@@ -21,6 +24,8 @@ __all__ = [
     "ModelError",
     "ParameterError",
     "compare",
+    "export",
+    "export_targets",
     "fit",
     "get_model",
     "list_models",

@@ -1,0 +1,105 @@
+"""From a fit to a renderer's material: ``export(result, target) -> Export``.
+
+One module per target (each cites its primary source): :mod:`.mitsuba`
+(``mitsuba``, ``mitsuba-xml``), :mod:`.gltf`, :mod:`.openpbr`, :mod:`.pbrt`,
+:mod:`.blender`. Shared machinery and the conversion error: :mod:`.core`.
+"""
+
+from __future__ import annotations
+
+from ..errors import ParameterError
+from ..geometry import Geometry
+from .blender import blender_document, blender_inputs
+from .core import Export, Material, conversion_error, material_of, native_albedo
+from .gltf import gltf_document, gltf_material, material_from_gltf
+from .mitsuba import mitsuba_dict, mitsuba_parameters, mitsuba_xml
+from .openpbr import openpbr_document, openpbr_parameters
+from .pbrt import pbrt_model, pbrt_parameters, pbrt_statement, pbrt_values
+
+__all__ = ["Export", "Material", "export", "export_targets", "material_from_gltf", "material_of"]
+
+TARGETS = {
+    "mitsuba": "Mitsuba 3 dict for mitsuba.load_dict (diffuse, roughconductor, blendbsdf)",
+    "mitsuba-xml": "Mitsuba 3 XML <bsdf> fragment (the same BSDF)",
+    "gltf": "glTF 2.0 asset with one metallic-roughness material (+ KHR_materials_anisotropy)",
+    "openpbr": "MaterialX document with an open_pbr_surface",
+    "pbrt": "pbrt-v4 material statements (mix of diffuse and conductor)",
+    "blender": "Blender 4 Principled BSDF inputs and a Python snippet",
+}
+
+
+def export_targets() -> dict:
+    """The export targets: name -> what the document is."""
+    return dict(TARGETS)
+
+
+def export(result, target: str, data=None) -> Export:
+    """The fitted material of ``result`` as a ``target`` material, with its error.
+
+    Parameters
+    ----------
+    result : FitResult or dict
+        A fit, or its ``to_dict()`` (``brdffit fit --json``).
+    target : str
+        One of :func:`export_targets`.
+    data : Measurements, optional
+        When given, approximate exports are fitted to the data (not to the
+        fitted BRDF) and the error is measured on the data's directions.
+    """
+    if target not in TARGETS:
+        raise ParameterError(
+            f"target={target!r} is not an export target; choose one of {', '.join(TARGETS)}",
+            "target",
+        )
+    material = material_of(result)
+    if target in ("mitsuba", "mitsuba-xml", "pbrt"):
+        return _via_mitsuba(material, target, data)
+    return _via_gltf(material, target, data)
+
+
+def _via_mitsuba(material: Material, target: str, data) -> Export:
+    neutral, native, exact, notes = mitsuba_parameters(material, data)
+    if target == "pbrt":
+        q = pbrt_parameters(neutral, material.channels)
+        model = pbrt_model(q)
+        error = conversion_error(
+            material,
+            lambda wi, wo: Geometry(wi, wo).scatter(pbrt_values(Geometry(wi, wo), q)),
+            native_albedo(Material(model, {"scale": 1.0}, material.channels)),
+            data,
+        )
+        notes = (
+            *notes,
+            "pbrt's conductor has no scale and a height-correlated G: the statement is "
+            "an approximation, evaluated here from pbrt-v4's formulas.",
+        )
+        return Export(pbrt_statement(q), target, q, {**error, "exact": False}, notes, native,
+                      "pbrt")  # fmt: skip
+    document = mitsuba_dict(neutral, material.channels)
+    error = conversion_error(material, native.evaluate, native_albedo(native), data)
+    notes = (*notes, "Mitsuba's BSDF.eval returns the BRDF times cos(theta_o).")
+    params = {**document}
+    if target == "mitsuba-xml":
+        document = mitsuba_xml(document)
+    ext = "xml" if target == "mitsuba-xml" else "json"
+    return Export(document, target, params, {**error, "exact": exact}, notes, native, ext)
+
+
+def _via_gltf(material: Material, target: str, data) -> Export:
+    native, exact, notes = gltf_material(material, data)
+    error = conversion_error(material, native.evaluate, native_albedo(native), data)
+    if target == "gltf":
+        document = gltf_document(native)
+        params = document["materials"][0]
+        ext = "gltf"
+    elif target == "openpbr":
+        params = openpbr_parameters(native)
+        document, ext = openpbr_document(params), "mtlx"
+        notes = (*notes, "OpenPBR's BRDF is not evaluated here: the error is glTF's.")
+        exact = False
+    else:
+        params = blender_inputs(native)
+        document, ext = blender_document(params), "json"
+        notes = (*notes, "Blender's Principled BSDF is not evaluated here: the error is glTF's.")
+        exact = False
+    return Export(document, target, params, {**error, "exact": exact}, notes, native, ext)
