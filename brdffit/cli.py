@@ -16,7 +16,7 @@ import warnings
 
 import numpy as np
 
-from . import __version__
+from . import __version__, cli_export
 from .cli_text import fit_text, plain, print_json, progress_for, shout, table
 from .errors import BrdfFitError
 from .models.base import HIGHLIGHTS, OPERANDS, ORIGINS, SYMMETRIES
@@ -168,6 +168,7 @@ def cmd_fit(args) -> int:
                result.posterior.message, "give it more time with --max-seconds")  # fmt: skip
     if args.plot:
         _plots(args.plot, data, result, args.file)
+    cli_export.export_after_fit(args, result, data)
     return 0
 
 
@@ -361,6 +362,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="noise model of the posterior (default: given when the data have sigma)",
     )
     p.add_argument("--plot", metavar="PNG", help="plot measured vs fitted (and the corner plot)")
+    cli_export.add_fit_option(p)
     p.set_defaults(run=cmd_fit)
 
     p = sub.add_parser("compare", help="fit several models and rank them")
@@ -393,6 +395,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--file", help="take the direction pairs of a data file")
     _add_json(p)
     p.set_defaults(run=cmd_evaluate)
+
+    cli_export.add_parser(sub)
 
     p = sub.add_parser("serve", help="run the HTTP service")
     p.add_argument("--host", default="127.0.0.1")

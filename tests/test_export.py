@@ -189,7 +189,7 @@ def test_gltf_roughness_is_the_square_root_of_alpha():
 
 # --------------------------------------------------------------- pbrt, others
 def pbrt_reference(wi, wo, q, c):
-    """pbrt-v4 formulas with complex arithmetic: eta = 1, k = 2 sqrt(r)/sqrt(1 - r)."""
+    """pbrt-v4's mix of diffuse and conductor, the Fresnel in complex arithmetic."""
     h = (wi + wo) / np.linalg.norm(wi + wo)
     au, av = q["uroughness"], q["vroughness"]
     d = 1 / (math.pi * au * av * ((h[0] / au) ** 2 + (h[1] / av) ** 2 + h[2] ** 2) ** 2)
@@ -197,8 +197,11 @@ def pbrt_reference(wi, wo, q, c):
     def lam(w):
         return (math.sqrt(1 + ((au * w[0]) ** 2 + (av * w[1]) ** 2) / w[2] ** 2) - 1) / 2
 
-    r = q["conductor_reflectance"][c]
-    n = complex(1.0, 2 * math.sqrt(r) / math.sqrt(1 - r))
+    if "reflectance" in q:  # pbrt: eta = 1, k = 2 sqrt(r) / sqrt(1 - r)
+        r = q["reflectance"][c]
+        n = complex(1.0, 2 * math.sqrt(r) / math.sqrt(1 - r))
+    else:
+        n = complex(q["eta"], q["k"])
     ci = float(wi @ h)
     ct = np.sqrt(1 - (1 - ci * ci) / (n * n))
     f = 0.5 * (abs((ci - n * ct) / (ci + n * ct)) ** 2 + abs((n * ci - ct) / (n * ci + ct)) ** 2)
@@ -216,10 +219,23 @@ def test_pbrt_statement_and_its_brdf(brushed):
     got = pbrt_values(Geometry(wi, wo), q)
     want = [[pbrt_reference(a, b, q, c) for c in range(3)] for a, b in zip(wi, wo)]
     np.testing.assert_allclose(got, want, rtol=1e-9)
-    # F(0) of pbrt's conductor is its reflectance r: the reflectance written is F(0).
-    r = np.array(q["conductor_reflectance"])
+    # A coloured metal keeps its colour through pbrt's reflectance (F at normal incidence).
+    r = np.array(q["reflectance"])
+    assert f'"rgb reflectance" [ {" ".join(f"{x:.9g}" for x in r)} ]' in e.document
+    assert r[0] > r[1] > r[2]
     k = 2 * np.sqrt(r) / np.sqrt(1 - r)
-    np.testing.assert_allclose(k**2 / (4 + k**2), r, rtol=1e-12)
+    np.testing.assert_allclose(k**2 / (4 + k**2), r, rtol=1e-12)  # F(0) = r with eta = 1
+    assert '"float amount"' in e.document and '"string type" "mix"' in e.document
+    # The error reported is that of the written statement, small for this metal.
+    assert e.conversion_error["rms_log_target"] < 0.05
+
+
+def test_pbrt_grey_specular_is_written_with_eta_and_k(plastic):
+    e = export(plastic[0], "pbrt")
+    q = e.parameters
+    assert f'"spectrum k" [ 300 {q["k"]:.9g} 800 {q["k"]:.9g} ]' in e.document
+    assert q["k"] < 0.5 and 1.2 < q["eta"] < 2.0  # the plastic's Fresnel: a dielectric's
+    assert e.conversion_error["rms_log_target"] < 0.02
 
 
 def test_openpbr_is_materialx_with_the_gltf_values(plastic):

@@ -7,12 +7,14 @@ One module per target (each cites its primary source): :mod:`.mitsuba`
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import ParameterError
 from ..geometry import Geometry
 from .blender import blender_document, blender_inputs
 from .core import Export, Material, conversion_error, material_of, native_albedo
 from .gltf import gltf_document, gltf_material, material_from_gltf
-from .mitsuba import mitsuba_dict, mitsuba_parameters, mitsuba_xml
+from .mitsuba import from_document, mitsuba_dict, mitsuba_parameters, mitsuba_xml
 from .openpbr import openpbr_document, openpbr_parameters
 from .pbrt import pbrt_model, pbrt_parameters, pbrt_statement, pbrt_values
 
@@ -52,30 +54,40 @@ def export(result, target: str, data=None) -> Export:
             "target",
         )
     material = material_of(result)
-    if target in ("mitsuba", "mitsuba-xml", "pbrt"):
+    if target == "pbrt":
+        return _via_pbrt(material, data)
+    if target in ("mitsuba", "mitsuba-xml"):
         return _via_mitsuba(material, target, data)
     return _via_gltf(material, target, data)
 
 
+def _via_pbrt(material: Material, data) -> Export:
+    q, notes = pbrt_parameters(material, data)
+    error = conversion_error(
+        material,
+        lambda wi, wo: Geometry(wi, wo).scatter(pbrt_values(Geometry(wi, wo), q)),
+        native_albedo(Material(pbrt_model(q), {"scale": 1.0}, material.channels)),
+        data,
+    )
+    notes = (
+        *notes,
+        "pbrt's mix of diffuse and conductor, fitted and evaluated here from pbrt-v4's "
+        "formulas (height-correlated G, exact Fresnel); roughness is alpha "
+        "(remaproughness false).",
+    )
+    native = Material(pbrt_model(q), {"scale": 1.0}, material.channels)
+    return Export(pbrt_statement(q), "pbrt", q, {**error, "exact": False}, notes, native, "pbrt")
+
+
 def _via_mitsuba(material: Material, target: str, data) -> Export:
     neutral, native, exact, notes = mitsuba_parameters(material, data)
-    if target == "pbrt":
-        q = pbrt_parameters(neutral, material.channels)
-        model = pbrt_model(q)
-        error = conversion_error(
-            material,
-            lambda wi, wo: Geometry(wi, wo).scatter(pbrt_values(Geometry(wi, wo), q)),
-            native_albedo(Material(model, {"scale": 1.0}, material.channels)),
-            data,
-        )
-        notes = (
-            *notes,
-            "pbrt's conductor has no scale and a height-correlated G: the statement is "
-            "an approximation, evaluated here from pbrt-v4's formulas.",
-        )
-        return Export(pbrt_statement(q), target, q, {**error, "exact": False}, notes, native,
-                      "pbrt")  # fmt: skip
     document = mitsuba_dict(neutral, material.channels)
+    written = from_document(document, material.channels)
+    wi, wo = _probe_pairs()
+    if not np.allclose(written.evaluate(wi, wo), native.evaluate(wi, wo), rtol=1e-9, atol=0):
+        exact = False
+        notes = (*notes, "reflectances above 1 were clipped to 1 (Mitsuba refuses them)")
+    native = written
     error = conversion_error(material, native.evaluate, native_albedo(native), data)
     notes = (*notes, "Mitsuba's BSDF.eval returns the BRDF times cos(theta_o).")
     params = {**document}
@@ -83,6 +95,14 @@ def _via_mitsuba(material: Material, target: str, data) -> Export:
         document = mitsuba_xml(document)
     ext = "xml" if target == "mitsuba-xml" else "json"
     return Export(document, target, params, {**error, "exact": exact}, notes, native, ext)
+
+
+def _probe_pairs():
+    from ..geometry import directions_from_angles
+    from ..synth import hemisphere_angles
+
+    ti, pi_, to, po = hemisphere_angles(500, np.random.default_rng(0))
+    return directions_from_angles(ti, pi_), directions_from_angles(to, po)
 
 
 def _via_gltf(material: Material, target: str, data) -> Export:

@@ -106,7 +106,10 @@ def conversion_error(material: Material, target_eval, target_albedo, data=None) 
     samples, against = reference_data(material, data)
     y = samples.values.reshape(samples.n, -1)
     cos_i = samples.wi[:, 2]
-    f_target = np.broadcast_to(target_eval(samples.wi, samples.wo), y.shape)
+    f_target = np.asarray(target_eval(samples.wi, samples.wo)).reshape(samples.n, -1)
+    if y.shape[1] == 1:  # a grey material written as RGB: its channels are equal
+        f_target = f_target[:, :1]
+    f_target = np.broadcast_to(f_target, y.shape)
     f_fit = np.broadcast_to(material.evaluate(samples.wi, samples.wo), y.shape)
     fit_albedo = albedo(material.model, dict(material.params), list(ALBEDO_ANGLES), rtol=1e-4)
     return {

@@ -24,7 +24,7 @@ __all__ = ["gltf_document", "gltf_material", "material_from_gltf"]
 
 def gltf_material(material: Material, data=None) -> tuple:
     """(native Material, exact?, notes)."""
-    if data is None and material.model in ("gltf_pbr", "gltf_pbr_anisotropic"):
+    if material.model in ("gltf_pbr", "gltf_pbr_anisotropic"):
         return material, True, ()
     aniso = get_model(material.model).classification.symmetry == "anisotropic"
     name = "gltf_pbr_anisotropic" if aniso else "gltf_pbr"

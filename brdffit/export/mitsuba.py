@@ -17,12 +17,14 @@ form): ``kd / pi + ks F D G1 G1 / (4 N.L N.V)``, written as
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..models import get_model
 from .core import Material, rgb, to_native
 
-__all__ = ["mitsuba_parameters", "mitsuba_dict", "mitsuba_xml", "native_model"]
+__all__ = ["from_document", "mitsuba_parameters", "mitsuba_dict", "mitsuba_xml", "native_model"]
 
 NONE_ETA_K = (0.0, 1.0)
 
@@ -71,16 +73,17 @@ def _from_native(native: Material) -> dict:
 
 def mitsuba_parameters(material: Material, data=None) -> tuple:
     """(neutral parameters, native Material, exact?, notes)."""
-    exact = _exact(material) if data is None else None
+    exact = _exact(material)
     if exact is not None:
         return exact, _native_material(exact, material.channels), True, ()
     name = native_model(material)
-    lobe = name.split("+")[1]
-    fixed = {f"{lobe}.eta": 0.0, f"{lobe}.k": 1.0}
-    native, _ = to_native(material, name, data, fixed)
+    # kd + ks <= 1 per channel, so that blendbsdf's two reflectances can stay <= 1.
+    model = replace(get_model(name), coefficient_constraints=(((1.0, 1.0), 1.0),))
+    native, _ = to_native(material, model, data)
     notes = (
-        f"{material.model} is not a Mitsuba BSDF: {name} (diffuse + GGX roughconductor "
-        "with F = 1) was fitted to it; the error is that of the fitted stand-in.",
+        f"{material.model} is not a Mitsuba BSDF: {name} (diffuse + GGX roughconductor, "
+        "its eta and k free, so k = 0 gives a dielectric's Fresnel) was fitted to it; "
+        "the error is that of the fitted stand-in.",
     )
     return _from_native(native), native, False, notes
 
@@ -115,13 +118,34 @@ def mitsuba_dict(p: dict, channels) -> dict:
         return {"type": "diffuse", "reflectance": _rgb(kd.tolist())}
     if not kd.any():
         return {**conductor, "specular_reflectance": _rgb(ks.tolist())}
+    # Mitsuba refuses reflectances above 1: where kd + ks > 1 they are clipped,
+    # and the export's native material (from_document) shows the clipped BRDF.
     w = float(ks.max() / (ks.max() + kd.max()))
     return {
         "type": "blendbsdf",
         "weight": w,
-        "bsdf_0": {"type": "diffuse", "reflectance": _rgb((kd / (1 - w)).tolist())},
-        "bsdf_1": {**conductor, "specular_reflectance": _rgb((ks / w).tolist())},
+        "bsdf_0": {"type": "diffuse", "reflectance": _rgb(np.minimum(kd / (1 - w), 1).tolist())},
+        "bsdf_1": {**conductor, "specular_reflectance": _rgb(np.minimum(ks / w, 1).tolist())},
     }
+
+
+def from_document(d: dict, channels) -> Material:
+    """The native Material that a Mitsuba dict of :func:`mitsuba_dict` evaluates to."""
+    w = d.get("weight", 1.0 if d["type"] == "roughconductor" else 0.0)
+    parts = [d["bsdf_0"], d["bsdf_1"]] if d["type"] == "blendbsdf" else [d]
+    kd, ks, conductor = np.zeros(3), np.zeros(3), {"alpha": 0.1, "material": "none"}
+    for part in parts:
+        if part["type"] == "diffuse":
+            kd = (1 - w) * np.asarray(part["reflectance"]["value"])
+        else:
+            ks, conductor = w * np.asarray(part["specular_reflectance"]["value"]), part
+    eta_k = NONE_ETA_K if "material" in conductor else (conductor["eta"], conductor["k"])
+    au = conductor.get("alpha", conductor.get("alpha_u"))
+    av = conductor.get("alpha", conductor.get("alpha_v"))
+    if len(channels) == 1:  # a grey material written as RGB
+        kd, ks = kd[:1], ks[:1]
+    neutral = {"kd": kd, "ks": ks, "alpha_u": au, "alpha_v": av, "eta_k": eta_k}
+    return _native_material(neutral, channels)
 
 
 def _xml(d: dict, indent: str, name: str | None = None, version: bool = False) -> list:
