@@ -54,5 +54,5 @@ def render_preview(bsdf: dict, path, size: int = 128, spp: int = 32, seed: int =
     scene = mi.load_dict(_scene(mi, bsdf, int(size), int(spp)))
     image = np.asarray(mi.render(scene, seed=seed))
     path = Path(path)
-    mi.util.write_bitmap(str(path), image[:, :, :3])
+    mi.util.write_bitmap(str(path), image[:, :, :3], write_async=False)
     return path
