@@ -28,6 +28,7 @@ from brdffit.errors import BrdfFitError
 from .errors import KINDS, ApiError
 from .jobs import FitPool, JobRunner
 from .routes import router
+from .routes_export import router as export_router
 from .settings import Settings
 from .store import JobStore
 
@@ -186,6 +187,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.include_router(router)
+    app.include_router(export_router)
     app.add_exception_handler(BrdfFitError, _library_error)
     app.add_exception_handler(RequestValidationError, _request_invalid)
     app.add_exception_handler(ValidationError, _request_invalid)
