@@ -25,7 +25,13 @@ ERRORS = {
     422: {"model": ErrorOut, "description": "Input that cannot be used; `field` says which."},
 }
 
-router = APIRouter(tags=["export"])
+router = APIRouter(
+    tags=["export"],
+    responses={
+        400: {"model": ErrorOut, "description": "A body that cannot be read at all."},
+        500: {"model": ErrorOut, "description": "A bug (logged)."},
+    },
+)
 
 
 class FittedMaterialIn(BaseModel):
