@@ -3,7 +3,8 @@
 The result file is what ``brdffit fit --json`` prints (the fit's ``to_dict()``).
 The export's conversion error is printed: as a few lines for a person, or with
 ``--json`` as the export's ``to_dict()``. ``--preview PNG`` renders a sphere
-with the material in Mitsuba 3.
+with the material in Mitsuba 3 (beside Mitsuba's ``measured`` rendering of the
+data when ``--data`` is an RGL ``.bsdf`` file).
 """
 
 from __future__ import annotations
@@ -27,7 +28,11 @@ def add_parser(subparsers) -> None:
     p.add_argument("--to", required=True, choices=sorted(targets), help="the renderer")
     p.add_argument("--out", required=True, help="the file to write")
     p.add_argument("--data", help="a data file: fit approximate exports to it, measure on it")
-    p.add_argument("--preview", metavar="PNG", help="render a sphere with it (needs mitsuba)")
+    p.add_argument(
+        "--preview",
+        metavar="PNG",
+        help="render a sphere with it in Mitsuba (beside the measurement for RGL .bsdf data)",
+    )
     p.add_argument("--json", action="store_true", help="print the export as one JSON object")
     p.set_defaults(run=run)
 
@@ -83,7 +88,7 @@ def _row(values) -> str:
     return " ".join(f"{v:.3f}" for v in values)
 
 
-def _do(result, target: str, out: str, data, preview: str | None):
+def _do(result, target: str, out: str, data, preview: str | None, rgl=None):
     from .export import export
     from .export.preview import render_preview
 
@@ -91,7 +96,7 @@ def _do(result, target: str, out: str, data, preview: str | None):
     e.write(out)
     if preview:
         mitsuba = e if target == "mitsuba" else export(result, "mitsuba", data=data)
-        render_preview(mitsuba.document, preview)
+        render_preview(mitsuba.document, preview, measured=rgl)
     return e
 
 
@@ -99,7 +104,9 @@ def run(args) -> int:
     from .io import read
 
     data = read(args.data) if args.data else None
-    e = _do(_load_result(args.result), args.to, args.out, data, args.preview)
+    # An RGL file is also rendered by Mitsuba's own measured BSDF, beside the export.
+    rgl = args.data if args.data and Path(args.data).suffix == ".bsdf" else None
+    e = _do(_load_result(args.result), args.to, args.out, data, args.preview, rgl)
     if args.json:
         print(json.dumps(e.to_dict(), indent=2))
     else:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import brdffit
@@ -95,3 +96,20 @@ def test_not_a_result_is_named(capsys, tmp_path):
     assert code == 2 and "gltf_pbr needs a value for base_color" in err
     code, _, err = run(capsys, "fit", GLTF, "--model", "gltf_pbr", "--export", "gltf")
     assert code == 2 and "TARGET:FILE" in err
+
+
+def test_preview_beside_mitsubas_measured_rendering_of_an_rgl_file(tmp_path):
+    pytest.importorskip("mitsuba", reason="Mitsuba 3 (pip install mitsuba) is absent")
+    from conftest import shared_file
+    from PIL import Image
+
+    from brdffit.export.preview import render_preview
+
+    rgl = shared_file("rgl", "satin_rosaline_rgb.bsdf")
+    bsdf = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.5, 0.5, 0.5]}}
+    one = render_preview(bsdf, tmp_path / "one.png", size=32, spp=4)
+    two = render_preview(bsdf, tmp_path / "two.png", size=32, spp=4, measured=rgl)
+    assert Image.open(one).size == (32, 32) and Image.open(two).size == (64, 32)
+    left, right = np.asarray(Image.open(two))[:, :32], np.asarray(Image.open(two))[:, 32:]
+    np.testing.assert_array_equal(left, np.asarray(Image.open(one)))  # same seed, same scene
+    assert np.abs(right.astype(float) - left).mean() > 1  # the measured satin is not grey Lambert

@@ -42,8 +42,15 @@ def _scene(mi, bsdf: dict, size: int, spp: int) -> dict:
     }
 
 
-def render_preview(bsdf: dict, path, size: int = 128, spp: int = 32, seed: int = 0) -> Path:
-    """Render a sphere with the Mitsuba BSDF dict ``bsdf`` to a PNG at ``path``."""
+def render_preview(
+    bsdf: dict, path, size: int = 128, spp: int = 32, seed: int = 0, measured=None
+) -> Path:
+    """Render a sphere with the Mitsuba BSDF dict ``bsdf`` to a PNG at ``path``.
+
+    With ``measured`` (an RGL ``.bsdf`` file), the same sphere carrying Mitsuba's
+    ``measured`` BSDF of that file is rendered beside it (left: export, right:
+    measurement), in the same light.
+    """
     try:
         import mitsuba as mi
     except ImportError:
@@ -51,8 +58,11 @@ def render_preview(bsdf: dict, path, size: int = 128, spp: int = 32, seed: int =
             "a preview needs Mitsuba 3: pip install 'brdffit[export]' (or mitsuba)", "preview"
         ) from None
     mi.set_variant("scalar_rgb")
-    scene = mi.load_dict(_scene(mi, bsdf, int(size), int(spp)))
-    image = np.asarray(mi.render(scene, seed=seed))
+    images = [np.asarray(mi.render(mi.load_dict(_scene(mi, bsdf, size, spp)), seed=seed))]
+    if measured is not None:
+        other = {"type": "measured", "filename": str(measured)}
+        images.append(np.asarray(mi.render(mi.load_dict(_scene(mi, other, size, spp)), seed=seed)))
+    image = np.concatenate(images, axis=1)
     path = Path(path)
     mi.util.write_bitmap(str(path), image[:, :, :3], write_async=False)
     return path
