@@ -121,6 +121,9 @@ PARAMS = {
     "mitsuba_roughconductor_anisotropic": {
         "params": {"specular_reflectance": [0.91, 0.92, 0.92], "alpha_u": 0.08, "alpha_v": 0.25}
     },
+    "mitsuba_roughplastic": {
+        "params": {"diffuse": [0.6, 0.15, 0.1], "specular_reflectance": WHITE, "alpha": 0.12}
+    },
     # Wave optics: four wavelengths (channels named 400nm...), the material
     # constants eta, k and the aperture at the model's defaults (held in fits).
     "he": {

@@ -166,3 +166,43 @@ def test_mitsuba_roughconductor_matches_mitsuba_eval(name, params):
     np.testing.assert_allclose(got[big], (f * wo[:, 2])[big], rtol=1e-4)
     # Not f itself: the cosine matters (a pitfall when reading Mitsuba's eval).
     assert np.max(np.abs(got[big] / f[big] - 1)) > 0.05
+
+
+# ---------------------------------------------------------- Mitsuba roughplastic
+PLASTIC = [
+    {"diffuse": 0.8, "specular_reflectance": 1.0, "alpha": 0.2, "eta": 1.5},
+    {"diffuse": 0.4, "specular_reflectance": 0.6, "alpha": 0.05, "eta": 1.3},
+    {"diffuse": 1.2, "specular_reflectance": 1.0, "alpha": 0.6, "eta": 2.0},
+]
+
+
+@pytest.mark.parametrize("params", PLASTIC)
+def test_mitsuba_roughplastic_matches_mitsuba_eval(params):
+    """Mitsuba's diffuse_reflectance is the model's ``diffuse`` times 1 - R_int, and
+    its eta is int_ior / ext_ior with ext_ior written as 1 (its default is air)."""
+    from brdffit.models.mitsuba_plastic import internal_reflectance
+
+    wi, wo = hemisphere_pairs(200, seed=24, grazing=False)
+    r_int = internal_reflectance(params["alpha"], params["eta"])
+    assert 0.2 < r_int < 0.8
+    grey = {"type": "rgb", "value": [params["diffuse"] * (1 - r_int)] * 3}
+    spec = {"type": "rgb", "value": [params["specular_reflectance"]] * 3}
+    d = {"type": "roughplastic", "distribution": "ggx", "alpha": params["alpha"],
+         "int_ior": params["eta"], "ext_ior": 1.0, "diffuse_reflectance": grey,
+         "specular_reflectance": spec}  # fmt: skip
+    got = mitsuba_eval(d, wi, wo)[:, 0] / wo[:, 2]
+    f = get_model("mitsuba_roughplastic").evaluate(wi, wo, params)
+    np.testing.assert_allclose(got, f, rtol=1e-4)
+    # The diffuse part is not kd / pi: it falls towards grazing with T(N.L) T(N.V).
+    only = get_model("mitsuba_roughplastic").evaluate(
+        wi, wo, {**params, "specular_reflectance": 0.0}
+    )
+    ratio = only / (params["diffuse"] / math.pi)
+    assert ratio.max() < 1.0 and ratio.max() / ratio.min() > 1.5
+
+
+def test_mitsubas_default_ext_ior_is_air_not_vacuum():
+    mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 (pip install mitsuba) is not installed")
+    mi.set_variant("scalar_rgb")
+    text = str(mi.load_dict({"type": "roughplastic", "int_ior": 1.5}))
+    assert "eta = 1.5," not in text and "eta = 1.49" in text

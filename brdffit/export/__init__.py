@@ -14,7 +14,7 @@ from ..geometry import Geometry
 from .blender import blender_document, blender_inputs
 from .core import Export, Material, conversion_error, material_of, native_albedo
 from .gltf import gltf_document, gltf_material, material_from_gltf
-from .mitsuba import from_document, mitsuba_dict, mitsuba_parameters, mitsuba_xml
+from .mitsuba import from_document, mitsuba_dict, mitsuba_parameters, mitsuba_xml, roughplastic
 from .openpbr import openpbr_document, openpbr_parameters
 from .pbrt import pbrt_model, pbrt_parameters, pbrt_statement, pbrt_values
 
@@ -79,7 +79,11 @@ def _via_pbrt(material: Material, data) -> Export:
     return Export(pbrt_statement(q), "pbrt", q, {**error, "exact": False}, notes, native, "pbrt")
 
 
-def _via_mitsuba(material: Material, target: str, data) -> Export:
+def _mitsuba_document(material: Material, data) -> tuple:
+    """(document, native Material that it evaluates to, exact?, notes)."""
+    if material.model == "mitsuba_roughplastic":
+        document, native, notes = roughplastic(material)
+        return document, native, not notes, notes
     neutral, native, exact, notes = mitsuba_parameters(material, data)
     document = mitsuba_dict(neutral, material.channels)
     written = from_document(document, material.channels)
@@ -87,7 +91,11 @@ def _via_mitsuba(material: Material, target: str, data) -> Export:
     if not np.allclose(written.evaluate(wi, wo), native.evaluate(wi, wo), rtol=1e-9, atol=0):
         exact = False
         notes = (*notes, "reflectances above 1 were clipped to 1 (Mitsuba refuses them)")
-    native = written
+    return document, written, exact, notes
+
+
+def _via_mitsuba(material: Material, target: str, data) -> Export:
+    document, native, exact, notes = _mitsuba_document(material, data)
     error = conversion_error(material, native.evaluate, native_albedo(native), data)
     notes = (*notes, "Mitsuba's BSDF.eval returns the BRDF times cos(theta_o).")
     params = {**document}

@@ -22,9 +22,17 @@ from dataclasses import replace
 import numpy as np
 
 from ..models import get_model
+from ..models.mitsuba_plastic import internal_reflectance
 from .core import Material, rgb, to_native
 
-__all__ = ["from_document", "mitsuba_parameters", "mitsuba_dict", "mitsuba_xml", "native_model"]
+__all__ = [
+    "from_document",
+    "mitsuba_dict",
+    "mitsuba_parameters",
+    "mitsuba_xml",
+    "native_model",
+    "roughplastic",
+]
 
 NONE_ETA_K = (0.0, 1.0)
 
@@ -171,3 +179,34 @@ def _xml(d: dict, indent: str, name: str | None = None, version: bool = False) -
 def mitsuba_xml(d: dict) -> str:
     """The dict as a Mitsuba 3 XML ``<bsdf>`` element (for ``load_string`` or a scene)."""
     return "\n".join(_xml(d, "", version=True)) + "\n"
+
+
+def roughplastic(material: Material) -> tuple:
+    """(document, native Material, notes) of a ``mitsuba_roughplastic`` fit: exact,
+    unless a reflectance above 1 had to be clipped (Mitsuba refuses them)."""
+    p = material.params
+    r_int = internal_reflectance(float(p["alpha"]), float(p["eta"]))
+    diffuse = np.asarray(rgb(p["diffuse"], material.channels)) * (1.0 - r_int)
+    specular = np.asarray(rgb(p["specular_reflectance"], material.channels))
+    notes = []
+    if diffuse.max() > 1 or specular.max() > 1:
+        notes.append("reflectances above 1 were clipped to 1 (Mitsuba refuses them)")
+        diffuse, specular = np.minimum(diffuse, 1.0), np.minimum(specular, 1.0)
+    document = {
+        "type": "roughplastic",
+        "distribution": "ggx",
+        "alpha": float(p["alpha"]),
+        "int_ior": float(p["eta"]),
+        "ext_ior": 1.0,  # Mitsuba's default is air, 1.000277
+        "diffuse_reflectance": _rgb(diffuse.tolist()),
+        "specular_reflectance": _rgb(specular.tolist()),
+    }
+    params = {
+        "diffuse": diffuse / (1.0 - r_int),
+        "specular_reflectance": specular,
+        "alpha": p["alpha"],
+        "eta": p["eta"],
+    }
+    if len(material.channels) == 1:
+        params["diffuse"], params["specular_reflectance"] = diffuse[:1] / (1 - r_int), specular[:1]
+    return document, Material(material.model, params, material.channels), tuple(notes)

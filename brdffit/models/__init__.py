@@ -5,8 +5,10 @@ from __future__ import annotations
 import difflib
 
 from ..errors import ModelError
-from . import anisotropic, empirical, microfacet, renderer_native, renderers, wave
+from . import anisotropic, empirical, microfacet, renderers, wave
 from .base import Classification, Design, Model, Param
+from .mitsuba_plastic import MODELS as MITSUBA_PLASTIC  # renderer-native (brdffit.export)
+from .renderer_native import MODELS as RENDERER_NATIVE  # renderer-native (brdffit.export)
 
 __all__ = ["REGISTRY", "get_model", "list_models", "Model", "Param", "Classification", "Design"]
 
@@ -18,7 +20,8 @@ REGISTRY: dict[str, Model] = {
         *renderers.MODELS,
         *anisotropic.MODELS,
         *wave.MODELS,
-        *renderer_native.MODELS,
+        *RENDERER_NATIVE,
+        *MITSUBA_PLASTIC,
     )
 }
 
