@@ -287,3 +287,20 @@ def test_mitsuba_roughplastic_exports_exactly():
     got = mitsuba_eval(load_mitsuba(xml), wi, wo) / wo[:, 2:3]
     np.testing.assert_allclose(got, get_model("mitsuba_roughplastic").evaluate(wi, wo, params),
                                rtol=1e-4)  # fmt: skip
+
+
+def test_openpbr_document_validates_in_materialx(plastic):
+    mx = pytest.importorskip("MaterialX", reason="MaterialX (pip install materialx) is absent")
+    doc = mx.createDocument()
+    mx.readFromXmlString(doc, export(plastic[0], "openpbr").document)
+    library = mx.createDocument()
+    mx.loadLibraries(mx.getDefaultDataLibraryFolders(), mx.getDefaultDataSearchPath(), library)
+    doc.importLibrary(library)
+    valid, message = doc.validate()
+    assert valid, message
+    node = doc.getNode("brdffit_surface")
+    nodedef = node.getNodeDef()
+    assert nodedef is not None and nodedef.getNodeString() == "open_pbr_surface"
+    for given in node.getInputs():
+        assert nodedef.getActiveInput(given.getName()) is not None, given.getName()
+        assert given.getType() == nodedef.getActiveInput(given.getName()).getType()
