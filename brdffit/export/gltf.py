@@ -21,17 +21,25 @@ from .core import Material, rgb, to_native
 
 __all__ = ["gltf_document", "gltf_material", "material_from_gltf"]
 
+TANGENT_NOTE = (
+    "KHR_materials_anisotropy needs the mesh's TANGENT attribute: the fit's x axis is "
+    "the tangent, and anisotropyRotation turns counter-clockwise from it."
+)
+
 
 def gltf_material(material: Material, data=None) -> tuple:
     """(native Material, exact?, notes)."""
-    if material.model in ("gltf_pbr", "gltf_pbr_anisotropic"):
+    if material.model == "gltf_pbr":
         return material, True, ()
+    if material.model == "gltf_pbr_anisotropic":
+        return material, True, (TANGENT_NOTE,)
     aniso = get_model(material.model).classification.symmetry == "anisotropic"
     name = "gltf_pbr_anisotropic" if aniso else "gltf_pbr"
     native, _ = to_native(material, name, data)
     notes = (
         f"{material.model} is not glTF's BRDF: {name} was fitted to it; "
         "the error is that of the fitted glTF material.",
+        *((TANGENT_NOTE,) if aniso else ()),
     )
     return native, False, notes
 
