@@ -124,6 +124,15 @@ PARAMS = {
     "mitsuba_roughplastic": {
         "params": {"diffuse": [0.6, 0.15, 0.1], "specular_reflectance": WHITE, "alpha": 0.12}
     },
+    "mitsuba_principled": {"params": {"base_color": BLUE, "metallic": 0.2, "roughness": 0.35}},
+    "mitsuba_principled_anisotropic": {
+        "params": {
+            "base_color": [0.9, 0.7, 0.4],
+            "metallic": 0.85,
+            "roughness": 0.4,
+            "anisotropic": 0.6,
+        }
+    },
     # Wave optics: four wavelengths (channels named 400nm...), the material
     # constants eta, k and the aperture at the model's defaults (held in fits).
     "he": {

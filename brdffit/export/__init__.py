@@ -14,7 +14,14 @@ from ..geometry import Geometry
 from .blender import blender_document, blender_inputs
 from .core import Export, Material, conversion_error, material_of, native_albedo
 from .gltf import gltf_document, gltf_material, material_from_gltf
-from .mitsuba import from_document, mitsuba_dict, mitsuba_parameters, mitsuba_xml, roughplastic
+from .mitsuba import (
+    from_document,
+    mitsuba_dict,
+    mitsuba_parameters,
+    mitsuba_xml,
+    principled,
+    roughplastic,
+)
 from .openpbr import openpbr_document, openpbr_parameters
 from .pbrt import pbrt_model, pbrt_parameters, pbrt_statement, pbrt_values
 
@@ -81,6 +88,8 @@ def _via_pbrt(material: Material, data) -> Export:
 
 def _mitsuba_document(material: Material, data) -> tuple:
     """(document, native Material that it evaluates to, exact?, notes)."""
+    if material.model.startswith("mitsuba_principled"):
+        return principled(material), material, True, ()
     if material.model == "mitsuba_roughplastic":
         document, native, notes = roughplastic(material)
         return document, native, not notes, notes

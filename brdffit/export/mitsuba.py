@@ -31,6 +31,7 @@ __all__ = [
     "mitsuba_parameters",
     "mitsuba_xml",
     "native_model",
+    "principled",
     "roughplastic",
 ]
 
@@ -210,3 +211,19 @@ def roughplastic(material: Material) -> tuple:
     if len(material.channels) == 1:
         params["diffuse"], params["specular_reflectance"] = diffuse[:1] / (1 - r_int), specular[:1]
     return document, Material(material.model, params, material.channels), tuple(notes)
+
+
+def principled(material: Material) -> dict:
+    """The ``principled`` dict of a ``mitsuba_principled(_anisotropic)`` fit (exact:
+    every parameter is Mitsuba's own, base_color within [0, 1])."""
+    p = material.params
+    document = {
+        "type": "principled",
+        "base_color": _rgb(rgb(p["base_color"], material.channels)),
+        "metallic": float(p["metallic"]),
+        "roughness": float(p["roughness"]),
+        "specular": float(p["specular"]),
+    }
+    if "anisotropic" in p:
+        document["anisotropic"] = float(p["anisotropic"])
+    return document

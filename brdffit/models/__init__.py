@@ -8,6 +8,7 @@ from ..errors import ModelError
 from . import anisotropic, empirical, microfacet, renderers, wave
 from .base import Classification, Design, Model, Param
 from .mitsuba_plastic import MODELS as MITSUBA_PLASTIC  # renderer-native (brdffit.export)
+from .mitsuba_principled import MODELS as MITSUBA_PRINCIPLED  # renderer-native (export)
 from .renderer_native import MODELS as RENDERER_NATIVE  # renderer-native (brdffit.export)
 
 __all__ = ["REGISTRY", "get_model", "list_models", "Model", "Param", "Classification", "Design"]
@@ -22,6 +23,7 @@ REGISTRY: dict[str, Model] = {
         *wave.MODELS,
         *RENDERER_NATIVE,
         *MITSUBA_PLASTIC,
+        *MITSUBA_PRINCIPLED,
     )
 }
 
