@@ -318,3 +318,11 @@ def test_mitsuba_principled_exports_exactly(target):
     want = get_model("mitsuba_principled_anisotropic").evaluate(wi, wo, params)
     big = want > 1e-6 * want.max()
     np.testing.assert_allclose(got[big], want[big], rtol=1e-4)
+
+
+def test_a_negligible_lobe_is_dropped_not_divided_by_zero():
+    """blendbsdf's weight ks / (ks + kd) rounds to 1 when kd is 1e-17 of ks."""
+    params = {"kd": [1e-17, 0.0, 0.0], "ks": [0.9, 0.8, 0.7], "alpha": 0.2, "f0": 1.0}
+    e = export({"model": "ggx", "params": params}, "mitsuba")
+    assert e.document["type"] == "roughconductor"
+    assert np.isfinite(e.conversion_error["rms_log_target"])

@@ -123,9 +123,10 @@ def mitsuba_dict(p: dict, channels) -> dict:
         conductor["material"] = "none"
     else:
         conductor["eta"], conductor["k"] = (float(x) for x in p["eta_k"])
-    if not ks.any():
+    # A lobe below 1e-9 of the other is dropped: blendbsdf's weight would round to 0 or 1.
+    if ks.max() <= 1e-9 * kd.max() or not ks.any():
         return {"type": "diffuse", "reflectance": _rgb(kd.tolist())}
-    if not kd.any():
+    if kd.max() <= 1e-9 * ks.max():
         return {**conductor, "specular_reflectance": _rgb(ks.tolist())}
     # Mitsuba refuses reflectances above 1: where kd + ks > 1 they are clipped,
     # and the export's native material (from_document) shows the clipped BRDF.
