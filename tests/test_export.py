@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -326,3 +327,17 @@ def test_a_negligible_lobe_is_dropped_not_divided_by_zero():
     e = export({"model": "ggx", "params": params}, "mitsuba")
     assert e.document["type"] == "roughconductor"
     assert np.isfinite(e.conversion_error["rms_log_target"])
+
+
+def test_approximate_mitsuba_export_takes_the_closer_stand_in():
+    """A glTF dielectric is closer to Mitsuba's principled than to a diffuse +
+    conductor blend; the export says which it took and both errors."""
+    gltf = {"base_color": [0.6, 0.3, 0.2], "metallic": 0.0, "roughness": 0.5}
+    e = export({"model": "gltf_pbr", "params": gltf}, "mitsuba")
+    assert e.document["type"] == "principled"
+    assert "closer than a diffuse + roughconductor blend" in e.notes[0]
+    blend, principled = (
+        float(x) for x in re.findall(r"RMS ([\d.e-]+) vs ([\d.e-]+)", e.notes[0])[0][::-1]
+    )
+    assert principled < blend
+    assert e.conversion_error["rms_log_target"] == pytest.approx(principled, rel=1e-3)

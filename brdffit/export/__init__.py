@@ -11,8 +11,17 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..geometry import Geometry
+from ..models import get_model
 from .blender import blender_document, blender_inputs
-from .core import Export, Material, conversion_error, material_of, native_albedo
+from .core import (
+    Export,
+    Material,
+    conversion_error,
+    material_of,
+    native_albedo,
+    rms_log_error,
+    to_native,
+)
 from .gltf import gltf_document, gltf_material, material_from_gltf
 from .mitsuba import (
     from_document,
@@ -97,10 +106,29 @@ def _mitsuba_document(material: Material, data) -> tuple:
     document = mitsuba_dict(neutral, material.channels)
     written = from_document(document, material.channels)
     wi, wo = _probe_pairs()
-    if not np.allclose(written.evaluate(wi, wo), native.evaluate(wi, wo), rtol=1e-9, atol=0):
+    before, after = native.evaluate(wi, wo), written.evaluate(wi, wo)
+    if not np.allclose(after, before, rtol=1e-9, atol=1e-12 * np.abs(before).max()):
         exact = False
         notes = (*notes, "reflectances above 1 were clipped to 1 (Mitsuba refuses them)")
-    return document, written, exact, notes
+    if exact:
+        return document, written, exact, notes
+    return _closer_of(material, data, (document, written, exact, notes))
+
+
+def _closer_of(material: Material, data, blend: tuple) -> tuple:
+    """The blend stand-in or a fitted ``principled``, whichever errs less."""
+    aniso = get_model(material.model).classification.symmetry == "anisotropic"
+    name = "mitsuba_principled" + ("_anisotropic" if aniso else "")
+    candidate, _ = to_native(material, name, data)
+    errors = [rms_log_error(material, m.evaluate, data) for m in (blend[1], candidate)]
+    if errors[0] <= errors[1]:
+        return blend
+    notes = (
+        f"{material.model} is not a Mitsuba BSDF: {name} (reflection lobes) was fitted to "
+        f"it, closer than a diffuse + roughconductor blend (RMS {errors[1]:.4g} vs "
+        f"{errors[0]:.4g}); the error is that of the fitted principled.",
+    )
+    return principled(candidate), candidate, False, notes
 
 
 def _via_mitsuba(material: Material, target: str, data) -> Export:

@@ -32,7 +32,7 @@ from ..properties import albedo
 from ..result import FitResult
 from ..synth import synthesize
 
-__all__ = ["Export", "Material", "conversion_error", "material_of", "to_native"]
+__all__ = ["Export", "Material", "conversion_error", "material_of", "rms_log_error", "to_native"]
 
 ALBEDO_ANGLES = (0.0, 30.0, 60.0)
 
@@ -63,11 +63,19 @@ def material_of(result) -> Material:
                 )
         model = get_model(result["model"])
         params = model.check_params(result["params"])
-        channels = tuple(result.get("channels") or ("value",))
+        channels = tuple(result.get("channels") or _channels(params))
         return Material(model.name, params, channels)
     raise ParameterError(
         f"cannot export a {type(result).__name__}; give a FitResult or its to_dict()", "result"
     )
+
+
+def _channels(params) -> tuple:
+    """Channel names when a result does not give them: as many as values per channel."""
+    n = max(np.size(v) for v in params.values())
+    if n in (1, 3):
+        return ("value",) if n == 1 else ("r", "g", "b")
+    return tuple(f"c{i}" for i in range(n))
 
 
 def reference_data(material: Material, data=None):
@@ -95,6 +103,14 @@ def _rms_log(f: np.ndarray, y: np.ndarray, cos_i: np.ndarray) -> float:
         np.maximum(y, 0.0) * cos_i[:, None]
     )
     return float(np.sqrt(np.mean(d * d)))
+
+
+def rms_log_error(material: Material, target_eval, data=None) -> float:
+    """Only the RMS of ln(1 + f cos) of ``target_eval`` (to choose between candidates)."""
+    samples, _ = reference_data(material, data)
+    y = samples.values.reshape(samples.n, -1)
+    f = np.asarray(target_eval(samples.wi, samples.wo)).reshape(samples.n, -1)
+    return _rms_log(np.broadcast_to(f[:, : y.shape[1]], y.shape), y, samples.wi[:, 2])
 
 
 def conversion_error(material: Material, target_eval, target_albedo, data=None) -> dict:
