@@ -17,6 +17,7 @@ from .errors import (
     ModelError,
     ParameterError,
 )
+from .export import export, export_targets  # brdffit.export is the function
 from .fitting.compare import compare
 from .fitting.core import check_fit, fit
 from .fitting.engine import StopFit
@@ -39,6 +40,8 @@ __all__ = [
     "StopFit",
     "check_fit",
     "compare",
+    "export",
+    "export_targets",
     "fit",
     "get_model",
     "list_models",

@@ -105,6 +105,34 @@ PARAMS = {
             "f0": 0.9,
         }
     },
+    "gltf_pbr": {"params": {"base_color": RED, "metallic": 0.25, "roughness": 0.4}},
+    "gltf_pbr_anisotropic": {
+        "params": {
+            "base_color": [0.95, 0.64, 0.54],
+            "metallic": 0.9,
+            "roughness": 0.35,
+            "anisotropy_strength": 0.6,
+            "anisotropy_rotation": 0.4,
+        }
+    },
+    "mitsuba_roughconductor": {
+        "params": {"specular_reflectance": [0.95, 0.64, 0.54], "alpha": 0.15}
+    },
+    "mitsuba_roughconductor_anisotropic": {
+        "params": {"specular_reflectance": [0.91, 0.92, 0.92], "alpha_u": 0.08, "alpha_v": 0.25}
+    },
+    "mitsuba_roughplastic": {
+        "params": {"diffuse": [0.6, 0.15, 0.1], "specular_reflectance": WHITE, "alpha": 0.12}
+    },
+    "mitsuba_principled": {"params": {"base_color": BLUE, "metallic": 0.2, "roughness": 0.35}},
+    "mitsuba_principled_anisotropic": {
+        "params": {
+            "base_color": [0.9, 0.7, 0.4],
+            "metallic": 0.85,
+            "roughness": 0.4,
+            "anisotropic": 0.6,
+        }
+    },
     # Wave optics: four wavelengths (channels named 400nm...), the material
     # constants eta, k and the aperture at the model's defaults (held in fits).
     "he": {

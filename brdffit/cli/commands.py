@@ -15,6 +15,7 @@ import brdffit
 from .._extras import require
 from ..errors import BrdfFitError
 from ..models.base import HIGHLIGHTS, OPERANDS, ORIGINS, SYMMETRIES
+from .export import export_after_fit
 from .text import evaluate_csv, fit_text, models_text, print_json, progress_for, shout
 
 __all__ = [
@@ -156,6 +157,7 @@ def cmd_fit(args) -> int:
               result.posterior.message, "give it more time with --max-seconds")  # fmt: skip
     if args.plot:
         _plots(args.plot, data, result, args.file)
+    export_after_fit(args, result, data)
     return 0
 
 

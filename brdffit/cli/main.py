@@ -19,6 +19,7 @@ import warnings
 from .. import __version__
 from ..errors import BrdfFitError, MissingExtraError
 from ..fitting.losses import LOSSES
+from . import export
 from .commands import (
     AXES,
     cmd_compare,
@@ -120,6 +121,7 @@ def _add_fit(sub) -> None:
         metavar="PNG",
         help="plot measured vs fitted (and the corner plot); needs the 'plot' extra",
     )
+    export.add_fit_option(p)
     p.set_defaults(run=cmd_fit)
 
 
@@ -181,7 +183,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(
         dest="command", required=True, metavar="COMMAND", parser_class=_Parser
     )
-    for add in (_add_models, _add_fit, _add_compare, _add_synth, _add_evaluate, _add_serve):
+    for add in (_add_models, _add_fit, _add_compare, _add_synth, _add_evaluate, export.add_parser,
+                _add_serve):  # fmt: skip
         add(sub)
     return parser
 

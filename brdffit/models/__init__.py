@@ -5,7 +5,16 @@ from __future__ import annotations
 import difflib
 
 from ..errors import ModelError
-from . import anisotropic, empirical, microfacet, renderers, wave
+from . import (
+    anisotropic,
+    empirical,
+    microfacet,
+    mitsuba_plastic,
+    mitsuba_principled,
+    renderer_native,
+    renderers,
+    wave,
+)
 from .base import Classification, Design, Model, Param
 
 __all__ = ["REGISTRY", "get_model", "list_models", "Model", "Param", "Classification", "Design"]
@@ -18,6 +27,9 @@ REGISTRY: dict[str, Model] = {
         *renderers.MODELS,
         *anisotropic.MODELS,
         *wave.MODELS,
+        *renderer_native.MODELS,  # the renderers' own models, for exact exports
+        *mitsuba_plastic.MODELS,
+        *mitsuba_principled.MODELS,
     )
 }
 

@@ -1,0 +1,106 @@
+"""``POST /export``: a fitted material as a renderer's material, with its error.
+
+The body holds a fit result (``FitResult.to_dict()``, or just its model, params
+and channels), the target, and optionally the data: see
+:func:`brdffit.export`. The answer is ``Export.to_dict()``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from fastapi import APIRouter
+from pydantic import BaseModel, ConfigDict, Field
+
+import brdffit
+
+from ..convert import located, measurements
+from ..deps import SettingsDep
+from ..schemas import DataIn, ErrorOut
+
+__all__ = ["router", "ExportIn", "ExportOut"]
+
+Target = Literal["mitsuba", "mitsuba-xml", "gltf", "openpbr", "pbrt", "blender"]
+ERRORS = {
+    413: {"model": ErrorOut, "description": "The body is larger than the server takes."},
+    422: {"model": ErrorOut, "description": "Input that cannot be used; `field` says which."},
+}
+
+router = APIRouter(
+    tags=["export"],
+    responses={
+        400: {"model": ErrorOut, "description": "A body that cannot be read at all."},
+        500: {"model": ErrorOut, "description": "A bug (logged)."},
+    },
+)
+
+
+class FittedMaterialIn(BaseModel):
+    """A fit result: the ``to_dict()`` of :func:`brdffit.fit` (the answer of
+    ``POST /fit``) or only its ``model``, ``params`` and ``channels``."""
+
+    model_config = ConfigDict(extra="allow")
+
+    model: str = Field(description="The fitted model, a registered name or a sum of lobes.")
+    params: dict[str, float | list[float]] = Field(
+        description="Every parameter of the model: a number, or one per channel."
+    )
+    channels: list[str] | None = Field(None, description="Channel names (r, g, b...).")
+
+
+class ExportIn(BaseModel):
+    """The body of ``POST /export``: :func:`brdffit.export` (result, target, data)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    result: FittedMaterialIn
+    target: Target = Field(description="The renderer (GET /export/targets lists them).")
+    data: DataIn | None = Field(
+        None,
+        description="Measurements: approximate exports are fitted to them, and the error "
+        "is measured on their directions (default: on the fitted BRDF).",
+    )
+
+
+class ConversionErrorOut(BaseModel):
+    """How far the exported material is from the data (or the fitted BRDF)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    against: str = Field(description="'data', or the fitted BRDF on a gonio grid.")
+    n_directions: int = Field(description="Direction pairs the RMS is taken over.")
+    rms_log_target: float = Field(description="RMS of ln(1 + f cos theta_i), export vs reference.")
+    rms_log_fit: float = Field(description="The same for the fit itself.")
+    albedo_theta_i: list[float] = Field(description="Incidence angles of the albedos, degrees.")
+    albedo_target: list[list[float]] = Field(description="Directional albedo of the export.")
+    albedo_fit: list[list[float]] = Field(description="Directional albedo of the fit.")
+    exact: bool = Field(description="Whether the parameters were carried over exactly.")
+
+
+class ExportOut(BaseModel):
+    """``Export.to_dict()``."""
+
+    target: Target
+    document: dict[str, Any] | str = Field(description="What the renderer reads.")
+    parameters: dict[str, Any] = Field(description="The target's own parameters.")
+    conversion_error: ConversionErrorOut
+    notes: list[str] = Field(description="What could not be carried over; conventions.")
+
+
+@router.get("/export/targets", response_model=dict[str, str])
+def export_targets():
+    """``brdffit.export_targets()``: target name -> what its document is."""
+    return brdffit.export_targets()
+
+
+@router.post("/export", response_model=ExportOut, responses=ERRORS)
+def export(body: ExportIn, settings: SettingsDep):
+    """``brdffit.export(result, target, data)``."""
+    data = None
+    if body.data is not None:
+        data, _ = measurements(body.data, settings.fit_max_samples)
+    with located("result", {"model"}):
+        model = brdffit.get_model(body.result.model)
+    with located("result.params", set(model.param_names) | set(body.result.params)):
+        out = brdffit.export(body.result.model_dump(), body.target, data=data)
+    return out.to_dict()
