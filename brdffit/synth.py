@@ -193,7 +193,22 @@ def synthesize(model, params=None, geometry="gonio", noise=0.0, noise_kind="rela
     noise = _check_noise(noise, noise_kind)
     values = model.check_params({**model.defaults(), **dict(params or {})})
     rng = np.random.default_rng(seed)
-    angles, wi, wo = _pairs(geometry, model, n, rng, geometry_options)
+    angles, wi, wo = _subset(*_pairs(geometry, model, n, rng, geometry_options), geometry, n, rng)
+    f = model.evaluate_prepared(Geometry(wi, wo, check=False), values, check=False)
+    f = f.reshape(len(wi), -1)
+    sigma = _noise_sigma(f, noise, noise_kind) if noise > 0 else None
+    noisy = f if sigma is None else f + sigma * rng.standard_normal(f.shape)
+    channels = _channel_names(model, values, f.shape[1]) if channels is None else channels
+    source = f"synthetic {model.name}, {noise:g} {noise_kind} noise, seed {seed}"
+    if angles is not None:
+        return Measurements.from_angles(*angles, noisy, channels=channels, sigma=sigma,
+                                        source=source)  # fmt: skip
+    return Measurements(wi, wo, noisy, channels, sigma, source)
+
+
+def _subset(angles, wi, wo, geometry, n, rng) -> tuple:
+    """Unit directions of the pairs, and a seeded subset of ``n`` of them (but for the
+    hemisphere geometry, which draws ``n`` pairs in the first place)."""
     if angles is None:
         wi, wo = check_directions(wi, wo)
     else:
@@ -204,20 +219,16 @@ def synthesize(model, params=None, geometry="gonio", noise=0.0, noise_kind="rela
         keep = np.sort(rng.choice(len(wi), size=int(n), replace=False))
         angles = None if angles is None else tuple(a[keep] for a in angles)
         wi, wo = wi[keep], wo[keep]
-    f = model.evaluate_prepared(Geometry(wi, wo, check=False), values, check=False)
-    f = f.reshape(len(wi), -1)
-    sigma = _noise_sigma(f, noise, noise_kind) if noise > 0 else None
-    noisy = f if sigma is None else f + sigma * rng.standard_normal(f.shape)
+    return angles, wi, wo
+
+
+def _channel_names(model, values, n_channels: int):
+    """Channels of a wave-optics model are named by their wavelength, so that a fit of
+    the data finds them (``550nm``); one channel is ``value``, three ``r, g, b``."""
     wavelength = next((p.name for p in model.params if p.per_channel), None)
-    if channels is None and wavelength is not None:
-        # Channels of a wave-optics model are named by their wavelength, so that a
-        # fit of the data finds them (``550nm``).
-        nm = np.broadcast_to(np.asarray(values[wavelength], dtype=float), (f.shape[1],))
-        channels = tuple(f"{w:g}nm" for w in nm)
-    if channels is None and f.shape[1] in (1, 3):
-        channels = ("value",) if f.shape[1] == 1 else ("r", "g", "b")
-    source = f"synthetic {model.name}, {noise:g} {noise_kind} noise, seed {seed}"
-    if angles is not None:
-        return Measurements.from_angles(*angles, noisy, channels=channels, sigma=sigma,
-                                        source=source)  # fmt: skip
-    return Measurements(wi, wo, noisy, channels, sigma, source)
+    if wavelength is not None:
+        nm = np.broadcast_to(np.asarray(values[wavelength], dtype=float), (n_channels,))
+        return tuple(f"{w:g}nm" for w in nm)
+    if n_channels in (1, 3):
+        return ("value",) if n_channels == 1 else ("r", "g", "b")
+    return None

@@ -94,11 +94,9 @@ def _coefficient_limits(models, dropped) -> dict:
     return {"coefficient_bounds": tuple(bounds), "coefficient_constraints": tuple(rows) or None}
 
 
-def sum_of_lobes(models: list[Model]) -> Model:
-    """A model that is the sum of ``models`` (see the module docstring)."""
-    if len(models) < 2:
-        raise ModelError("a sum of lobes needs at least two models", "model")
-    labels = component_labels([m.name for m in models])
+def _dropped_columns(models: list[Model]) -> list[set[str]]:
+    """Per component, the constant (diffuse) columns it gives up: only the first
+    diffuse term of a sum is kept, the others would be the same column again."""
     dropped: list[set[str]] = []
     have_constant = False
     for model in models:
@@ -108,81 +106,112 @@ def sum_of_lobes(models: list[Model]) -> Model:
         if drop and model.to_coefficients is not None:
             raise ModelError(f"{model.name} cannot be summed after another diffuse term", "model")
         dropped.append(drop)
-    linear, shape, coefficients = [], [], []
-    for model, label, drop in zip(models, labels, dropped):
-        for p in model.params:
-            if p.name in drop:
-                continue
-            (linear if p.linear else shape).append(replace(p, name=f"{label}.{p.name}"))
-        coefficients += [f"{label}.{c}" for c in model.coefficients if c not in drop]
+    return dropped
 
-    def split(values: Mapping, i: int, held: bool = True) -> dict:
+
+class _Sum:
+    """The functions a sum of lobes hands to :class:`Model`: each component's
+    parameters live under its label (``ggx``, ``ggx_2``...), minus its dropped columns."""
+
+    def __init__(self, models: list[Model]):
+        self.models = models
+        self.labels = component_labels([m.name for m in models])
+        self.dropped = _dropped_columns(models)
+
+    def params(self) -> tuple:
+        linear, shape = [], []
+        for model, label, drop in zip(self.models, self.labels, self.dropped):
+            for p in model.params:
+                if p.name not in drop:
+                    (linear if p.linear else shape).append(replace(p, name=f"{label}.{p.name}"))
+        return tuple(linear + shape)
+
+    def coefficients(self) -> tuple:
+        return tuple(
+            f"{label}.{c}"
+            for model, label, drop in zip(self.models, self.labels, self.dropped)
+            for c in model.coefficients
+            if c not in drop
+        )
+
+    def split(self, values: Mapping, i: int, held: bool = True) -> dict:
         """Component i's own values; with ``held``, its removed params at 0."""
-        prefix = labels[i] + "."
+        prefix = self.labels[i] + "."
         sub = {k[len(prefix) :]: v for k, v in values.items() if k.startswith(prefix)}
         if held:
-            sub.update({name: 0.0 for name in dropped[i]})
+            sub.update({name: 0.0 for name in self.dropped[i]})
         return sub
 
-    def design(geometry: Geometry, shape_values: Mapping) -> Design:
+    def design(self, geometry: Geometry, shape_values: Mapping) -> Design:
         columns, offset = [], None
-        for i, model in enumerate(models):
-            d = model.design(geometry, split(shape_values, i, held=False))
-            columns += [c for c, n in zip(d.columns, model.coefficients) if n not in dropped[i]]
+        for i, model in enumerate(self.models):
+            d = model.design(geometry, self.split(shape_values, i, held=False))
+            kept = [c for c, n in zip(d.columns, model.coefficients) if n not in self.dropped[i]]
+            columns += kept
             if d.offset is not None:
                 offset = d.offset if offset is None else offset + d.offset
         return Design(tuple(columns), offset)
 
-    def to_coefficients(values: Mapping) -> list:
+    def to_coefficients(self, values: Mapping) -> list:
         out = []
-        for i, model in enumerate(models):
-            coefs = model.coefficient_values(split(values, i))
-            out += [c for c, n in zip(coefs, model.coefficients) if n not in dropped[i]]
+        for i, model in enumerate(self.models):
+            coefs = model.coefficient_values(self.split(values, i))
+            out += [c for c, n in zip(coefs, model.coefficients) if n not in self.dropped[i]]
         return out
 
-    def from_coefficients(coefs: Mapping) -> dict:
+    def from_coefficients(self, coefs: Mapping) -> dict:
         out = {}
-        for i, model in enumerate(models):
-            sub = split(coefs, i)
-            params = model.params_from_coefficients(sub)
-            out.update({f"{labels[i]}.{k}": v for k, v in params.items() if k not in dropped[i]})
+        for i, model in enumerate(self.models):
+            params = model.params_from_coefficients(self.split(coefs, i))
+            label, drop = self.labels[i], self.dropped[i]
+            out.update({f"{label}.{k}": v for k, v in params.items() if k not in drop})
         return out
 
-    def canonical(values: Mapping) -> dict:
+    def canonical(self, values: Mapping) -> dict:
+        """Repeated lobes of one model ordered by their first shape parameter."""
         out = dict(values)
         groups: dict[str, list[int]] = {}
-        for i, model in enumerate(models):
+        for i, model in enumerate(self.models):
             groups.setdefault(model.name, []).append(i)
         for idx in groups.values():
-            first = models[idx[0]].shape_params
+            first = self.models[idx[0]].shape_params
             if len(idx) < 2 or not first:
                 continue
             key = first[0].name
-            order = sorted(idx, key=lambda i: float(values[f"{labels[i]}.{key}"]))
+            order = sorted(idx, key=lambda i: float(values[f"{self.labels[i]}.{key}"]))
             for dst, src in zip(idx, order):
-                for p in models[dst].params:
-                    # The Lambertian term kept by the first lobe belongs to the sum,
-                    # not to a lobe: it does not move with the lobes.
-                    if p.name not in dropped[dst] | dropped[src] and not _is_diffuse(
-                        p.name, idx, dropped
-                    ):
-                        out[f"{labels[dst]}.{p.name}"] = values[f"{labels[src]}.{p.name}"]
+                self._move(out, values, idx, dst, src)
         return out
 
+    def _move(self, out: dict, values: Mapping, idx: list, dst: int, src: int) -> None:
+        skip = self.dropped[dst] | self.dropped[src]
+        for p in self.models[dst].params:
+            # The Lambertian term kept by the first lobe belongs to the sum,
+            # not to a lobe: it does not move with the lobes.
+            if p.name not in skip and not _is_diffuse(p.name, idx, self.dropped):
+                out[f"{self.labels[dst]}.{p.name}"] = values[f"{self.labels[src]}.{p.name}"]
+
+
+def sum_of_lobes(models: list[Model]) -> Model:
+    """A model that is the sum of ``models`` (see the module docstring)."""
+    if len(models) < 2:
+        raise ModelError("a sum of lobes needs at least two models", "model")
+    parts = _Sum(models)
     doc = "Sum of lobes: " + " + ".join(
-        f"{label} ({m.name}: {m.doc.strip().splitlines()[0]})" for label, m in zip(labels, models)
+        f"{label} ({m.name}: {m.doc.strip().splitlines()[0]})"
+        for label, m in zip(parts.labels, models)
     )
     return Model(
         name="+".join(m.name for m in models),
-        params=tuple(linear + shape),
+        params=parts.params(),
         classification=_combined_classification(models),
         reference="; ".join(dict.fromkeys(m.reference for m in models)),
-        design=design,
+        design=parts.design,
         doc=doc,
-        coefficients=tuple(coefficients),
-        to_coefficients=to_coefficients,
-        from_coefficients=from_coefficients,
+        coefficients=parts.coefficients(),
+        to_coefficients=parts.to_coefficients,
+        from_coefficients=parts.from_coefficients,
         reciprocal=all(m.reciprocal for m in models),
-        canonical=canonical,
-        **_coefficient_limits(models, dropped),
+        canonical=parts.canonical,
+        **_coefficient_limits(models, parts.dropped),
     )
