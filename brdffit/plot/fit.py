@@ -21,17 +21,24 @@ its inline plots), no window opens and no global figure is kept.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..data.geometry import directions_from_angles
 from ..models import get_model
+from .residuals import SIGMA_LABEL, Residuals, log_hidden, plural, residuals
 
-__all__ = ["plot_fit", "plane_of_incidence"]
+__all__ = ["PlaneSlice", "fit_figure", "plane_of_incidence", "plot_fit", "slice_note"]
 
-#: Azimuth tolerance (degrees) for a sample to count as in the plane of incidence.
+#: Azimuth tolerance (degrees): a sample this close to the plane of incidence is in it.
 PLANE_TOLERANCE = 0.5
+#: Farthest (degrees) the nearest azimuth slice may lie from the plane of incidence
+#: to stand for it: tabulated data (MBSDF cells: 2 degrees wide, centred 1 degree
+#: off the plane) have no sample in the plane itself.
+SLICE_TOLERANCE = 5.0
 MAX_PANELS = 6
 MAX_CHANNELS = 8
 RGB = {
@@ -44,27 +51,75 @@ RGB = {
 }
 
 
-def plane_of_incidence(data) -> list[tuple[float, float, np.ndarray, np.ndarray]]:
-    """Incidence directions with samples in their plane of incidence.
+class PlaneSlice(NamedTuple):
+    """The samples drawn for one incidence direction (angles in degrees).
 
-    Returns a list of ``(theta_i, phi_i, index, signed_theta_o)`` (degrees), one per
-    incidence direction with at least five in-plane samples, sorted by ``theta_i``;
-    ``signed_theta_o`` is negative on the side of the light.
+    ``index``: the samples; ``signed``: their outgoing polar angle, negative on the
+    side of the light; ``backward``/``forward``: the azimuth ``phi_o - phi_i`` of the
+    slice on each side (0 and 180 in the plane itself; None when that side has no
+    slice); ``offset``: the largest distance of a drawn sample's azimuth from the plane.
+    """
+
+    theta_i: float
+    phi_i: float
+    index: np.ndarray
+    signed: np.ndarray
+    backward: float | None
+    forward: float | None
+    offset: float
+
+
+def _nearest(distance: np.ndarray, tolerance: float) -> np.ndarray:
+    """The samples of the azimuth slice nearest the plane (``distance`` from it), when
+    that slice is within ``tolerance``: every sample within PLANE_TOLERANCE of it."""
+    if distance.size == 0 or distance.min() > tolerance:
+        return np.zeros(distance.shape, dtype=bool)
+    return distance <= distance.min() + PLANE_TOLERANCE
+
+
+def _slice(dphi, to, tolerance):
+    """Masks (backward, forward, normal) of one incidence direction's samples."""
+    normal = to < 1e-9
+    upper = (to < 90) & ~normal
+    d_forward = np.where(upper, np.abs(dphi - 180.0), np.inf)
+    d_backward = np.where(upper, np.minimum(dphi, 360.0 - dphi), np.inf)
+    return _nearest(d_backward, tolerance), _nearest(d_forward, tolerance), normal
+
+
+def plane_of_incidence(data, tolerance: float = SLICE_TOLERANCE) -> list[PlaneSlice]:
+    """Incidence directions with samples in (or next to) their plane of incidence.
+
+    On each side of the normal (towards the light, towards the mirror direction) the
+    azimuth slice nearest the plane is taken when it lies within ``tolerance``
+    degrees of it. Returns one :class:`PlaneSlice` per incidence direction with at
+    least five such samples, sorted by ``theta_i``.
     """
     ti, pi_, to, po = (np.asarray(a, dtype=float) for a in data.angles(degrees=True))
     key = np.round(np.column_stack([ti, np.mod(pi_, 360.0)]), 3)
     dphi = np.mod(po - pi_, 360.0)
-    forward = np.abs(dphi - 180.0) < PLANE_TOLERANCE
-    backward = np.minimum(dphi, 360.0 - dphi) < PLANE_TOLERANCE
-    normal = to < 1e-9
     groups = []
     for theta_i, phi_i in np.unique(key, axis=0):
-        same = (key[:, 0] == theta_i) & (key[:, 1] == phi_i)
-        index = np.flatnonzero(same & (forward | backward | normal) & (to < 90))
-        if len(index) >= 5:
-            signed = np.where(backward[index] & ~normal[index], -to[index], to[index])
-            groups.append((float(theta_i), float(phi_i), index, signed))
+        same = np.flatnonzero((key[:, 0] == theta_i) & (key[:, 1] == phi_i))
+        group = _group(float(theta_i), float(phi_i), same, dphi[same], to[same], tolerance)
+        if group is not None:
+            groups.append(group)
     return groups
+
+
+def _group(theta_i, phi_i, same, dphi, to, tolerance) -> PlaneSlice | None:
+    """The slice of one incidence direction (``same``: its samples), if it has 5 samples."""
+    back, fore, normal = _slice(dphi, to, tolerance)
+    keep = back | fore | normal
+    if keep.sum() < 5:
+        return None
+    signed = np.where(back[keep], -to[keep], to[keep])
+    away_back = np.minimum(dphi[back], 360.0 - dphi[back])  # distance from the plane
+    away_fore = np.abs(dphi[fore] - 180.0)
+    backward = float(np.median(np.where(dphi[back] > 180, dphi[back] - 360, dphi[back]))) \
+        if back.any() else None  # fmt: skip
+    forward = float(np.median(dphi[fore])) if fore.any() else None
+    offset = float(np.concatenate([away_back, away_fore, [0.0]]).max())
+    return PlaneSlice(theta_i, phi_i, same[keep], signed, backward, forward, offset)
 
 
 def _pick(groups: list, k: int) -> list:
@@ -94,13 +149,15 @@ def _channel_colours(channels, wavelengths) -> tuple[list[int], list]:
     return shown, [cmap(0.05 + 0.9 * i / max(len(shown) - 1, 1)) for i in range(len(shown))]
 
 
-def _curve(model, params, theta_i, phi_i):
-    """The model along the plane of incidence, theta_o from -89 to 89 degrees."""
+def _curve(model, params, group: PlaneSlice):
+    """The model along the slice, theta_o from -89 to 89 degrees, at the slice's azimuths."""
     signed = np.linspace(-89.0, 89.0, 357)
-    phi_o = np.where(signed < 0, phi_i, phi_i + 180.0)
+    back = 0.0 if group.backward is None else group.backward
+    fore = 180.0 if group.forward is None else group.forward
+    phi_o = group.phi_i + np.where(signed < 0, back, fore)
     wo = directions_from_angles(np.abs(signed), phi_o)
-    wi = np.repeat(directions_from_angles(np.array([theta_i]), np.array([phi_i])), len(wo), 0)
-    values = np.asarray(model.evaluate(wi, wo, params), dtype=float)
+    wi = directions_from_angles(np.array([group.theta_i]), np.array([group.phi_i]))
+    values = np.asarray(model.evaluate(np.repeat(wi, len(wo), 0), wo, params), dtype=float)
     return signed, values.reshape(len(signed), -1)
 
 
@@ -109,48 +166,62 @@ def _log_floor(values: np.ndarray) -> float:
     return float(positive.min()) / 2 if positive.size else 1e-6
 
 
+def _corner_text(ax, lines, where="lower left") -> None:
+    """Small text inside ``ax`` (what the axis does not show, how the slice was taken)."""
+    if lines:
+        x, ha = (0.01, "left") if where.endswith("left") else (0.99, "right")
+        y, va = (0.02, "bottom") if where.startswith("lower") else (0.98, "top")
+        ax.text(x, y, "\n".join(lines), transform=ax.transAxes, ha=ha, va=va, fontsize=7,
+                color="0.25", gid="note")  # fmt: skip
+
+
+def slice_note(group: PlaneSlice) -> str:
+    """What the panel of ``group`` says about its azimuth slice."""
+    if group.offset <= PLANE_TOLERANCE:
+        return f"samples within {PLANE_TOLERANCE:g}° of the plane of incidence"
+    return (
+        f"no sample in the plane: nearest azimuth slice, φo − φi = "
+        f"{_side(group.backward)} | {_side(group.forward)} (≤ {group.offset:.3g}° off the "
+        f"plane, tolerance {SLICE_TOLERANCE:g}°); model drawn there"
+    )
+
+
+def _side(dphi) -> str:
+    return "none" if dphi is None else f"{dphi:.4g}°"
+
+
 def _plane_panel(ax, data, model, params, group, shown, colours, floor):
-    theta_i, phi_i, index, signed = group
-    x, curve = _curve(model, params, theta_i, phi_i)
-    order = np.argsort(signed)
-    for c, colour in zip(shown, colours):
-        label = data.channels[c]
-        y = data.values[index, c]
-        ax.plot(
-            signed[order],
-            np.where(y > 0, y, np.nan)[order],
-            "o",
-            ms=3.5,
-            color=colour,
-            alpha=0.75,
-            label=f"{label} measured",
-        )
+    x, curve = _curve(model, params, group)
+    order = np.argsort(group.signed)
+    measured = data.values[group.index][:, shown]
+    for k, (c, colour) in enumerate(zip(shown, colours)):
+        y = measured[:, k]
+        ax.plot(group.signed[order], np.where(y > 0, y, np.nan)[order], "o", ms=3.5,
+                color=colour, alpha=0.75, label=f"{data.channels[c]} measured")  # fmt: skip
         fit_c = curve[:, c] if curve.shape[1] > 1 else curve[:, 0]
         ax.plot(x, np.where(fit_c > floor / 10, fit_c, np.nan), "-", lw=1.4, color=colour)
-    ax.axvline(-theta_i, color="0.6", lw=0.8, ls=":")
-    ax.axvline(theta_i, color="0.6", lw=0.8, ls="--")
+    ax.axvline(-group.theta_i, color="0.6", lw=0.8, ls=":")
+    ax.axvline(group.theta_i, color="0.6", lw=0.8, ls="--")
     ax.set_yscale("log")
     ax.set_ylim(bottom=floor)
     ax.set_xlim(-90, 90)
-    ax.set_title(f"incidence θi = {theta_i:g}°, φi = {phi_i:g}°", fontsize=10)
+    ax.set_title(f"incidence θi = {group.theta_i:g}°, φi = {group.phi_i:g}°", fontsize=10)
     ax.set_xlabel(
         "outgoing θo in the plane of incidence (°)\n← light side | mirror side →", fontsize=8
     )
     ax.set_ylabel("BRDF (1/sr)")
     ax.grid(True, which="major", alpha=0.3)
+    hidden = log_hidden(measured)
+    notes = [slice_note(group)] if group.offset > PLANE_TOLERANCE else []
+    if hidden:
+        notes.append(f"{plural(hidden, 'measured value')} ≤ 0 not shown (log axis)")
+    _corner_text(ax, notes)
 
 
 def _scatter_panel(ax, data, pred, shown, colours, floor):
     for c, colour in zip(shown, colours):
-        ax.loglog(
-            pred[:, c],
-            data.values[:, c],
-            ".",
-            ms=3,
-            alpha=0.5,
-            color=colour,
-            label=data.channels[c],
-        )
+        ax.loglog(pred[:, c], data.values[:, c], ".", ms=3, alpha=0.5, color=colour,
+                  label=data.channels[c])  # fmt: skip
     top = max(float(np.max(data.values)), float(np.max(pred)))
     ax.plot([floor, top], [floor, top], "k-", lw=0.8, label="measured = fitted")
     ax.set_xlim(floor, top * 1.5)
@@ -159,39 +230,42 @@ def _scatter_panel(ax, data, pred, shown, colours, floor):
     ax.set_ylabel("measured BRDF (1/sr)")
     ax.set_title("every sample: measured against fitted", fontsize=10)
     ax.grid(True, alpha=0.3)
+    hidden = int(np.count_nonzero((data.values[:, shown] <= 0) | (pred[:, shown] <= 0)))
+    if hidden:
+        _corner_text(ax, [f"{plural(hidden, 'point')} with a value ≤ 0 not shown (log axes)"],
+                     "lower right")  # fmt: skip
 
 
-def _residual_panel(ax, data, pred, shown, colours):
-    h = data.wi + data.wo
-    norm = np.linalg.norm(h, axis=1)
-    theta_h = np.degrees(np.arccos(np.clip(h[:, 2] / np.where(norm > 0, norm, 1), -1, 1)))
-    if data.sigma is not None:
-        resid, label = (data.values - pred) / data.sigma, "(measured − fitted) / σ"
+def _residual_panel(ax, data, pred, shown, colours) -> Residuals:
+    res = residuals(data, pred, shown)
+    low, high = res.limits
+    for k, colour in enumerate(colours):
+        r = res.values[:, k]
+        inside = (r >= low) & (r <= high)
+        ax.plot(res.theta_h[inside], r[inside], ".", ms=2.5, alpha=0.5, color=colour,
+                gid="residuals")  # fmt: skip
+        for mask, edge, marker in ((r > high, high, "^"), (r < low, low, "v")):
+            if mask.any():
+                ax.plot(res.theta_h[mask], np.full(mask.sum(), edge), marker, ms=4, mfc="none",
+                        color=colour, gid="outliers")  # fmt: skip
+    if res.label == SIGMA_LABEL:
         for level in (-3, 3):
             ax.axhline(level, color="0.5", lw=0.8, ls="--")
-    else:
-        scale = np.maximum(np.abs(pred), 1e-3 * np.max(np.abs(pred)))
-        resid, label = (data.values - pred) / scale, "(measured − fitted) / fitted"
-    for c, colour in zip(shown, colours):
-        ax.plot(theta_h, resid[:, c], ".", ms=2.5, alpha=0.5, color=colour)
     ax.axhline(0, color="k", lw=0.8)
+    pad = 0.04 * (high - low)
+    ax.set_ylim(low - pad, high + pad)
     ax.set_xlabel("half-vector angle θh (°)")
-    ax.set_ylabel(label)
+    ax.set_ylabel(res.label)
     ax.set_title("residuals of every sample", fontsize=10)
     ax.grid(True, alpha=0.3)
+    _corner_text(ax, res.notes(), "upper right")
+    return res
 
 
-def plot_fit(data, result, path, title: str | None = None) -> str:
-    """Write the PNG described in the module docstring to ``path``; return ``path``.
+def fit_figure(data, result, title: str | None = None) -> Figure:
+    """The figure of :func:`plot_fit`, not yet saved (its artists can be inspected).
 
-    Parameters
-    ----------
-    data : Measurements
-        The data the fit was made on.
-    result : FitResult
-    path : str or path-like
-    title : str, optional
-        What the data are called in the title (default: their ``source``).
+    Parameters are as for :func:`plot_fit`.
     """
     model = get_model(result.model)
     params = dict(result.params)
@@ -218,7 +292,22 @@ def plot_fit(data, result, path, title: str | None = None) -> str:
         ha="left",
     )
     FigureCanvasAgg(fig)
-    fig.savefig(path, dpi=110)
+    return fig
+
+
+def plot_fit(data, result, path, title: str | None = None) -> str:
+    """Write the PNG described in the module docstring to ``path``; return ``path``.
+
+    Parameters
+    ----------
+    data : Measurements
+        The data the fit was made on.
+    result : FitResult
+    path : str or path-like
+    title : str, optional
+        What the data are called in the title (default: their ``source``).
+    """
+    fit_figure(data, result, title).savefig(path, dpi=110)
     return str(path)
 
 
