@@ -88,7 +88,7 @@ def test_relative_residuals_are_what_the_label_says_and_zero_fits_are_counted():
     fitted = brdffit.get_model("lambert").evaluate(noisy.wi, noisy.wo, result.params)
     assert np.all(fitted[:, 1] == 0)  # the case of the issue: a channel fitted to 0
     ax = _axis(fit_figure(noisy, result), "(measured − fitted) / fitted")
-    (x_r, y_r), (x_b, y_b) = _drawn(ax, "residuals")
+    (_, y_r), (_, y_b) = _drawn(ax, "residuals")
     expected = (values[:, 0] - fitted[:, 0]) / fitted[:, 0]
     assert np.allclose(np.sort(y_r), np.sort(expected), rtol=1e-12)
     assert y_b.size == 0  # no relative residual where the fit is 0 (was drawn as ~0)
