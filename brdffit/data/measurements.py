@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..notes import note
+from .angle_units import radians_note, radians_suspected
 from .geometry import Geometry, angles_from_directions, check_directions, directions_from_angles
 
 __all__ = ["Measurements"]
@@ -222,7 +223,7 @@ class Measurements:
 
     @classmethod
     def from_angles(cls, theta_i, phi_i, theta_o, phi_o, values, channels=None, sigma=None,
-                    degrees=True, source="", units="1/sr"):  # fmt: skip
+                    degrees=None, source="", units="1/sr"):  # fmt: skip
         """Measurements from spherical angles (MODELS.md convention).
 
         ``theta`` in [0, 180] (degrees, or [0, pi] radians with ``degrees=False``),
@@ -230,12 +231,21 @@ class Measurements:
         :meth:`angles` returns them exactly and files round-trip byte for byte.
         A polar angle of exactly 90 degrees gives a direction with z = 0 exactly
         (cos(pi/2) evaluates to 6e-17, which would put it above the horizon).
+
+        ``degrees=None`` (the default) reads degrees and notes
+        (:func:`brdffit.notes.note`, a ``UserWarning``) when the angles look like
+        radians (:func:`radians_suspected`); ``degrees=True`` states degrees and
+        ``degrees=False`` radians, without that check.
         """
+        stated, degrees = degrees is not None, True if degrees is None else bool(degrees)
         ti = _check_angles("theta_i", theta_i, None, degrees, True)
         n = ti.size
         pi_ = _check_angles("phi_i", phi_i, n, degrees, False)
         to = _check_angles("theta_o", theta_o, n, degrees, True)
         po = _check_angles("phi_o", phi_o, n, degrees, False)
+        if not stated and radians_suspected(ti, pi_, to, po):
+            largest = max(ti.max(), to.max())
+            note(radians_note(source or "the angles", largest, "degrees=False"), stacklevel=2)
         wi = directions_from_angles(ti, pi_, degrees)
         wo = directions_from_angles(to, po, degrees)
         right = 90.0 if degrees else np.pi / 2

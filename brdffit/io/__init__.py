@@ -26,14 +26,16 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 from ..data.measurements import Measurements
-from ..errors import DataError, FormatError
+from ..errors import BrdfFitError, DataError, FormatError
 from .astm import read_astm, write_astm
 from .csv_format import read_csv, write_csv
+from .limits import DEFAULT_MAX_SAMPLES, check_samples, checked_limit
 from .npz_format import read_npz, write_npz
 from .pbrt import read_pbrt
 from .source import NAMELESS, Source, as_source, file_name
 
-__all__ = ["FORMATS", "NAMELESS", "Format", "Source", "detect_format", "read", "write"]
+__all__ = ["DEFAULT_MAX_SAMPLES", "FORMATS", "NAMELESS", "Format", "Source", "detect_format"]
+__all__ += ["read", "write"]
 
 
 class Format(NamedTuple):
@@ -45,10 +47,10 @@ class Format(NamedTuple):
     description: str
 
 
-def _read_merl(source, subsample=None) -> Measurements:
+def _read_merl(source, subsample=None, max_samples=DEFAULT_MAX_SAMPLES) -> Measurements:
     from .merl import read_merl
 
-    return read_merl(source, subsample=subsample)
+    return read_merl(source, subsample=subsample, max_samples=max_samples)
 
 
 def _write_merl(target, data) -> None:
@@ -57,20 +59,20 @@ def _write_merl(target, data) -> None:
     write_merl(target, data)
 
 
-def _read_mbsdf(source) -> Measurements:
+def _read_mbsdf(source, max_samples=DEFAULT_MAX_SAMPLES) -> Measurements:
     from .mbsdf import read_mbsdf
 
-    return read_mbsdf(source)
+    return read_mbsdf(source, max_samples=max_samples)
 
 
-def _read_rgl(source) -> Measurements:
+def _read_rgl(source, max_samples=DEFAULT_MAX_SAMPLES) -> Measurements:
     from .rgl import read_rgl
 
-    return read_rgl(source)
+    return read_rgl(source, max_samples=max_samples)
 
 
 FORMATS: dict[str, Format] = {
-    "csv": Format(read_csv, write_csv, (".csv",), "brdffit CSV, angles in degrees"),
+    "csv": Format(read_csv, write_csv, (".csv",), "brdffit CSV, angles in degrees unless stated"),
     "astm": Format(read_astm, write_astm, (".astm",), "ASTM E1392 text, angles in radians"),
     "pbrt": Format(read_pbrt, None, (".brdf",), "pbrt-v2 measured .brdf text (read only)"),
     "merl": Format(_read_merl, _write_merl, (".binary",), "MERL BRDF database binary"),
@@ -106,12 +108,13 @@ def _by_extension(filename) -> str | None:
 
 
 def _sniff_text(head: bytes) -> str | None:
-    text = head.decode("utf-8", errors="replace")
+    utf16 = head.startswith((b"\xff\xfe", b"\xfe\xff"))
+    text = head.decode("utf-16" if utf16 else "utf-8-sig", errors="replace")
     for line in text.splitlines():
         line = line.strip()
         if not line or line.startswith("#"):
             continue
-        if "theta_i" in line and "," in line:
+        if "theta_i" in line and any(sep in line for sep in ",;\t"):
             return "csv"
         if _ASTM_KEY.match(line):
             return "astm"
@@ -150,19 +153,49 @@ def detect_format(source) -> str:
 
 def _call(function: Callable, role: str, name: str, *args, **options):
     """Call a reader or writer, turning unknown options into a FormatError."""
-    try:
-        inspect.signature(function).bind(*args, **options)
-    except TypeError:
-        accepted = list(inspect.signature(function).parameters)[len(args) :]
-        raise FormatError(
-            f"the {name} {role} does not take the option(s) {', '.join(options)}; "
-            f"it takes {', '.join(accepted) or 'no options'}",
-            next(iter(options), "options"),
-        ) from None
+    _check_options(function, role, name, args, options)
     return function(*args, **options)
 
 
-def read(source, format: str | None = None, **options) -> Measurements:
+def _check_options(function: Callable, role: str, name: str, args: tuple, options: dict):
+    try:
+        inspect.signature(function).bind(*args, **options)
+    except TypeError:
+        hidden = ("max_samples",) if role == "reader" else ()
+        given = [o for o in options if o not in hidden]
+        accepted = [p for p in list(inspect.signature(function).parameters)[len(args) :]
+                    if p not in hidden]  # fmt: skip
+        raise FormatError(
+            f"the {name} {role} does not take the option(s) {', '.join(given)}; "
+            f"it takes {', '.join(accepted) or 'no options'}",
+            next(iter(given), "options"),
+        ) from None
+
+
+def _with_name(exc: BrdfFitError, where: str) -> BrdfFitError:
+    """``exc`` when its message names the file, else the same error prefixed with it."""
+    if where in str(exc):
+        return exc
+    try:
+        named = type(exc)(f"{where}: {exc}", exc.field)
+    except TypeError:  # a subclass with another constructor
+        named = FormatError(f"{where}: {exc}", exc.field)
+    return named
+
+
+def _unexpected(exc: BaseException, where: str, name: str) -> FormatError:
+    """The FormatError that stands for an exception a reader did not foresee."""
+    what = "is too large to read in memory" if isinstance(exc, MemoryError) else "is damaged"
+    error = FormatError(
+        f"{where} cannot be read as {FORMATS[name].description}: the file {what} or not in "
+        f"this format (the {name} reader failed with {type(exc).__name__}: {exc})",
+        "source",
+    )
+    return error
+
+
+def read(source, format: str | None = None, *, max_samples=DEFAULT_MAX_SAMPLES,
+         **options) -> Measurements:  # fmt: skip
     """Read measured reflectance from a path, bytes or a binary file object.
 
     Parameters
@@ -173,12 +206,42 @@ def read(source, format: str | None = None, **options) -> Measurements:
         from (name an ``io.BytesIO`` with ``buffer.name = "upload.csv"``).
     format : str, optional
         One of :data:`FORMATS`; inferred when None (:func:`detect_format`).
+    max_samples : int or None
+        The most samples (direction pairs) to build: a file whose header or rows
+        give more is a FormatError before anything is allocated or decompressed
+        (:mod:`brdffit.io.limits`; default :data:`DEFAULT_MAX_SAMPLES`, None for
+        no limit).
     **options
-        Go to the format's reader: ``subsample`` for MERL, ``angle_unit`` for ASTM.
+        Go to the format's reader: ``subsample`` for MERL, ``angle_unit``
+        (``"degrees"`` or ``"radians"``) for CSV, ASTM and pbrt.
+
+    Raises
+    ------
+    FormatError, DataError
+        Every fault of the file's content, naming the file: a reader's unforeseen
+        exception (``MemoryError`` included) becomes a FormatError on the field
+        ``source`` whose message names the exception's type, chained to it. Errors
+        of the operating system (a missing file, no permission) are raised as
+        they are.
     """
     source = as_source(source)
+    limit = checked_limit(max_samples)
+    source.read()  # a missing or unreadable file raises its OSError here, as it is
     name = _named(format) if format is not None else detect_format(source)
-    return _call(FORMATS[name].read, "reader", name, source, **options)
+    reader = FORMATS[name].read
+    options["max_samples"] = limit
+    _check_options(reader, "reader", name, (source,), options)
+    try:
+        data = reader(source, **options)
+    except BrdfFitError as exc:
+        named = _with_name(exc, source.name)
+        if named is exc:
+            raise
+        raise named from exc
+    except Exception as exc:  # every unforeseen fault is the file's (MemoryError too)
+        raise _unexpected(exc, source.name, name) from exc
+    check_samples(data.n, limit, source.name, "its content")
+    return data
 
 
 def write(target, data: Measurements, format: str | None = None, **options) -> None:

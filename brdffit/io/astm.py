@@ -17,6 +17,7 @@ import numpy as np
 
 from ..data.measurements import Measurements
 from ..errors import FormatError
+from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source, put_bytes
 from .table import from_table
 
@@ -39,7 +40,8 @@ def _starts_a_number(text: str) -> bool:
     return text[0].isdigit() or (text[0] in "+-." and len(text) > 1)
 
 
-def parse_astm(text: str, where: str = "<astm text>", angle_unit: str = "radians"):
+def parse_astm(text: str, where: str = "<astm text>", angle_unit: str = "radians",
+               max_samples: int | None = DEFAULT_MAX_SAMPLES):  # fmt: skip
     """Measurements from the text of an ASTM E1392 file; ``where`` names it in errors."""
     degrees = _unit_is_degrees(angle_unit)
     header, key_lines, rows, lines = {}, {}, [], []
@@ -60,6 +62,7 @@ def parse_astm(text: str, where: str = "<astm text>", angle_unit: str = "radians
             "'VARS theta_i,phi_i,theta_s,phi_s,...' before the data",
             "VARS",
         )
+    check_samples(len(rows), max_samples, where, "its rows")
     _check_count(header, key_lines, len(rows), where)
     names = [_ASTM_ANGLES.get(v.strip(), v.strip()) for v in header["VARS"].split(",")]
     source = header.get("SAMPLE_NAME") or os.path.basename(str(where))
@@ -86,11 +89,12 @@ def _check_count(header: dict, key_lines: dict, count: int, where: str) -> None:
         )
 
 
-def read_astm(source, angle_unit: str = "radians") -> Measurements:
+def read_astm(source, angle_unit: str = "radians",
+              max_samples: int | None = DEFAULT_MAX_SAMPLES) -> Measurements:  # fmt: skip
     """Read ASTM E1392 text from a path, bytes or a binary file object (angles in
     radians unless ``angle_unit='degrees'``)."""
     source = as_source(source)
-    return parse_astm(source.text(), source.name, angle_unit)
+    return parse_astm(source.text(), source.name, angle_unit, max_samples)
 
 
 def format_astm(data: Measurements) -> str:

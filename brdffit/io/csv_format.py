@@ -5,8 +5,22 @@ phi_o`` in degrees (MODELS.md convention), every other numeric column is a
 channel (``value``, or ``r,g,b``, or ``550nm``...), except ``sigma_<channel>``
 columns, which give that channel's standard deviation per sample. Lines
 starting with ``#`` are comments; before the header, the comments
-``# source: ...`` and ``# units: ...`` give the source and units of the data.
-A column whose every entry is text (a sample label, say) is ignored.
+``# source: ...`` and ``# units: ...`` give the source and units of the data,
+and ``# angle_unit: radians`` (or ``degrees``; ``# units: radians`` says the
+same) the unit of the angles. A column whose every entry is text (a sample
+label, say) is ignored.
+
+Files saved by a spreadsheet are read as well: a UTF-8 (or UTF-16) byte order
+mark is skipped (:meth:`~brdffit.io.source.Source.text`), and the separator is
+the one of comma, semicolon and tab that the header line uses most. With
+semicolons or tabs, a comma inside a number is its decimal mark (``0,5``), as
+spreadsheets write in many European locales; a number with both a comma and a
+point is then refused, naming its line (the point would be a digit grouping).
+
+Angles in degrees that look like radians (every theta within [0, pi/2], every
+phi within [-2 pi, 2 pi]) are read as degrees with a note
+(:mod:`brdffit.notes`), unless the unit is stated: ``angle_unit=`` of the
+reader (``brdffit --angle-unit``), which wins over the file's comment.
 
 Numbers are written with ``repr``, the shortest text that reads back to the
 same double, so that writing and reading again loses nothing.
@@ -20,14 +34,39 @@ import numpy as np
 
 from ..data.measurements import ANGLE_COLUMNS, Measurements
 from ..errors import FormatError
+from ..notes import note
+from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source, put_bytes
-from .table import from_table
+from .table import SEPARATORS, from_table
 
-__all__ = ["format_csv", "parse_csv", "read_csv", "write_csv"]
+__all__ = ["ANGLE_UNITS", "format_csv", "parse_csv", "read_csv", "write_csv"]
+
+#: The angle units a reader takes, and the words a file's comment may use for them.
+ANGLE_UNITS = {"degrees": "degrees", "degree": "degrees", "deg": "degrees",
+               "radians": "radians", "radian": "radians", "rad": "radians"}  # fmt: skip
+
+
+def angle_unit_option(angle_unit) -> str | None:
+    """The reader option ``angle_unit`` checked: "degrees", "radians" or None."""
+    if angle_unit is None:
+        return None
+    if angle_unit not in ("degrees", "radians"):
+        raise FormatError(
+            f"angle_unit={angle_unit!r} is not known; it must be 'degrees' or 'radians'",
+            "angle_unit",
+        )
+    return angle_unit
+
+
+def _separator(line: str) -> str:
+    """The separator of a header line: the most frequent of comma, semicolon, tab."""
+    counts = {sep: line.count(sep) for sep in SEPARATORS}
+    best = max(counts, key=counts.get)
+    return best if counts[best] else ","
 
 
 def _header(lines: list, where: str):
-    """Metadata comments, the header (names, line number) and the data rows."""
+    """Metadata comments, the header (names, line number, separator) and the data rows."""
     meta, header, rows, numbers = {}, None, [], []
     for number, raw in enumerate(lines, start=1):
         text = raw.strip()
@@ -35,10 +74,13 @@ def _header(lines: list, where: str):
             continue
         if text.startswith("#"):
             key, sep, value = text[1:].partition(":")
-            if header is None and sep and key.strip() in ("source", "units"):
-                meta.setdefault(key.strip(), value.strip())
+            key = key.strip().lower()
+            if header is None and sep and key in ("source", "units", "angle_unit", "angles"):
+                meta.setdefault(key, (value.strip(), number))
         elif header is None:
-            header = ([name.strip() for name in text.split(",")], number)
+            sep = _separator(text)
+            names = [name.strip().strip('"').strip() for name in text.split(sep)]
+            header = (names, number, sep)
         else:
             rows.append(text)
             numbers.append(number)
@@ -47,18 +89,67 @@ def _header(lines: list, where: str):
     return meta, header, rows, numbers
 
 
-def parse_csv(text: str, where: str = "<csv text>") -> Measurements:
-    """Measurements from the text of a CSV file; ``where`` names it in errors."""
-    meta, (names, header_line), rows, lines = _header(text.splitlines(), where)
-    source = meta.get("source", os.path.basename(str(where)))
-    units = meta.get("units", "1/sr")
-    return from_table(where, names, header_line, rows, lines, True, source, units)
+def _decimal_commas(rows: list, lines: list, sep: str, where: str) -> list:
+    """Rows with decimal commas made points, when the separator is not a comma."""
+    if sep == "," or not any("," in row for row in rows):
+        return rows
+    for row, line in zip(rows, lines):
+        for cell in row.split(sep):
+            if "," in cell and "." in cell:
+                raise FormatError(
+                    f"{where}, line {line}: {cell.strip()!r} has both a comma and a point; with "
+                    f"{SEPARATORS[sep]}-separated columns a comma is read as the decimal mark, "
+                    "so a point cannot be one too (save the file without digit grouping)",
+                    "data",
+                )
+    return [row.replace(",", ".") for row in rows]
 
 
-def read_csv(source) -> Measurements:
+def _file_unit(meta: dict, where: str) -> tuple:
+    """The angle unit the file's comments state (or None), and the value units."""
+    units = meta.get("units", ("1/sr", 0))[0]
+    stated = None
+    if units.lower() in ANGLE_UNITS:  # "# units: radians" can only mean the angles
+        stated, units = meta["units"], "1/sr"
+    stated = meta.get("angle_unit") or meta.get("angles") or stated
+    if stated is None:
+        return None, units
+    word, line = stated
+    if word.lower() not in ANGLE_UNITS:
+        raise FormatError(
+            f"{where}, line {line}: the angle unit {word!r} is not known; write "
+            "'# angle_unit: degrees' or '# angle_unit: radians'",
+            "angle_unit",
+        )
+    return ANGLE_UNITS[word.lower()], units
+
+
+def parse_csv(text: str, where: str = "<csv text>", angle_unit: str | None = None,
+              max_samples: int | None = DEFAULT_MAX_SAMPLES) -> Measurements:  # fmt: skip
+    """Measurements from the text of a CSV file; ``where`` names it in errors.
+
+    ``angle_unit`` ("degrees" or "radians") states the unit of the angles, over
+    the file's ``# angle_unit:`` comment; with neither, degrees (module doc).
+    """
+    angle_unit = angle_unit_option(angle_unit)
+    meta, (names, header_line, sep), rows, lines = _header(text.splitlines(), where)
+    check_samples(len(rows), max_samples, where, "its rows")
+    rows = _decimal_commas(rows, lines, sep, where)
+    source = meta.get("source", (os.path.basename(str(where)), 0))[0]
+    file_unit, units = _file_unit(meta, where)
+    if angle_unit and file_unit and angle_unit != file_unit:
+        note(f"{where}: the file says its angles are in {file_unit}; read as {angle_unit}, "
+             "as angle_unit says", stacklevel=3)  # fmt: skip
+    unit = angle_unit or file_unit
+    degrees = None if unit is None else unit == "degrees"
+    return from_table(where, names, header_line, rows, lines, degrees, source, units, sep)
+
+
+def read_csv(source, angle_unit: str | None = None,
+             max_samples: int | None = DEFAULT_MAX_SAMPLES) -> Measurements:  # fmt: skip
     """Read brdffit CSV from a path, bytes or a binary file object (module docstring)."""
     source = as_source(source)
-    return parse_csv(source.text(), source.name)
+    return parse_csv(source.text(), source.name, angle_unit, max_samples)
 
 
 def format_csv(data: Measurements) -> str:

@@ -42,6 +42,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import FormatError
+from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source
 
 __all__ = ["MAGIC", "MbsdfSamples", "mbsdf_directions", "read_mbsdf", "read_mbsdf_arrays"]
@@ -175,13 +176,15 @@ def _check_tail(raw: bytes, pos: int, path: str) -> bool:
     )
 
 
-def read_mbsdf_arrays(source) -> MbsdfSamples:
+def read_mbsdf_arrays(source, max_samples: int | None = DEFAULT_MAX_SAMPLES) -> MbsdfSamples:
     """Read the reflection part of an MBSDF file (a path, bytes or a binary file object)
-    into arrays (see the module doc)."""
+    into arrays (see the module doc); at most ``max_samples`` cells
+    (:mod:`brdffit.io.limits`)."""
     source = as_source(source)
     path, raw = source.name, source.read()
     pos, metadata = _find_reflection(raw, path)
     kind, n_theta, n_phi, end = _block_header(raw, pos, path, "reflection")
+    check_samples(n_theta * n_theta * n_phi, max_samples, path, f"the header at byte {pos}")
     has_transmission = _check_tail(raw, end, path)
     channels = TYPES[kind]
     count = n_theta * n_theta * n_phi * len(channels)
@@ -206,7 +209,7 @@ def read_mbsdf_arrays(source) -> MbsdfSamples:
     )
 
 
-def read_mbsdf(source):
+def read_mbsdf(source, max_samples: int | None = DEFAULT_MAX_SAMPLES):
     """Read the reflection part of an MBSDF file as :class:`~brdffit.Measurements`.
 
     Units are not stated by the format; they are taken as 1/sr (a BRDF).
@@ -214,7 +217,7 @@ def read_mbsdf(source):
     from ..data.measurements import Measurements
 
     source = as_source(source)
-    s = read_mbsdf_arrays(source)
+    s = read_mbsdf_arrays(source, max_samples)
     return Measurements(
         s.wi, s.wo, s.values, channels=s.channels, source=source.name, units="1/sr"
     )

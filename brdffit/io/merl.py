@@ -54,6 +54,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import DataError, FormatError
+from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source, put_bytes
 
 __all__ = [
@@ -218,7 +219,8 @@ def _read_table(raw: bytes, path: str) -> np.ndarray:
     return table.reshape(3, RES_THETA_H, RES_THETA_D, RES_PHI_D)
 
 
-def read_merl_arrays(source, subsample: int | None = None) -> MerlSamples:
+def read_merl_arrays(source, subsample: int | None = None,
+                     max_samples: int | None = DEFAULT_MAX_SAMPLES) -> MerlSamples:  # fmt: skip
     """Read a MERL ``.binary`` file into arrays of its valid cells.
 
     Parameters
@@ -229,6 +231,9 @@ def read_merl_arrays(source, subsample: int | None = None) -> MerlSamples:
         at index 0 (so the cells nearest the specular peak are kept): about
         ``1 / subsample^3`` of the cells, the same cells as
         ``grid_directions(subsample)``. None or 1 keeps them all.
+    max_samples : int, optional
+        The most cells to keep (:mod:`brdffit.io.limits`), checked before the
+        directions are built.
 
     Notes
     -----
@@ -242,6 +247,16 @@ def read_merl_arrays(source, subsample: int | None = None) -> MerlSamples:
     negative = (table < 0.0).any(axis=0)
     above = _horizon_mask(step)
     keep = above & ~negative
+    kept = int(keep.sum())
+    if kept == 0:
+        raise FormatError(
+            f"{source.name}: no cell holds a measurement: of the {negative.size} cells looked "
+            f"at, {int(negative.sum())} are negative (no measurement) and the others lie "
+            "below the horizon",
+            "source",
+        )
+    check_samples(kept, max_samples, source.name, f"its {kept:,} measured cells",
+                  "; read it with a larger subsample")  # fmt: skip
     wi, wo = _directions_of(keep, step)
     values = np.empty((wi.shape[0], 3))
     for c in range(3):
@@ -256,7 +271,8 @@ def read_merl_arrays(source, subsample: int | None = None) -> MerlSamples:
     )
 
 
-def read_merl(source, subsample: int | None = None):
+def read_merl(source, subsample: int | None = None,
+              max_samples: int | None = DEFAULT_MAX_SAMPLES):  # fmt: skip
     """Read a MERL file as :class:`~brdffit.data.measurements.Measurements` (channels r, g, b).
 
     See :func:`read_merl_arrays` for ``subsample``; cells without a measurement
@@ -265,7 +281,7 @@ def read_merl(source, subsample: int | None = None):
     from ..data.measurements import Measurements
 
     source = as_source(source)
-    s = read_merl_arrays(source, subsample)
+    s = read_merl_arrays(source, subsample, max_samples)
     return Measurements(s.wi, s.wo, s.values, channels=CHANNELS, source=source.name, units="1/sr")
 
 

@@ -10,18 +10,23 @@ gives back the same doubles; nothing is pickled (``allow_pickle=False``).
 from __future__ import annotations
 
 import io
+import math
 import zipfile
+import zlib
 
 import numpy as np
 
 from ..data.measurements import ANGLE_COLUMNS, Measurements
 from ..errors import DataError, FormatError
+from .limits import DEFAULT_MAX_SAMPLES, ELEMENTS_PER_SAMPLE, check_samples
 from .source import as_source, put_bytes
 
 __all__ = ["read_npz", "write_npz"]
 
 FORMAT_VERSION = 1
 _REQUIRED = ("wi", "wo", "values", "channels", "source", "units")
+_KNOWN = (*_REQUIRED, "sigma", "format_version", "angles_in_degrees", *ANGLE_COLUMNS)
+_NUMBER_KINDS, _TEXT_KINDS = "biuf", "U"
 
 
 def write_npz(target, data: Measurements) -> None:
@@ -48,29 +53,102 @@ def write_npz(target, data: Measurements) -> None:
     put_bytes(target, buffer.getvalue())
 
 
-def read_npz(source) -> Measurements:
-    """Read an archive written by :func:`write_npz` from a path, bytes or a binary file
-    object."""
-    source = as_source(source)
-    path, raw = source.name, source.read()
-    try:
-        with np.load(io.BytesIO(raw), allow_pickle=False) as archive:
-            contents = {key: archive[key] for key in archive.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
-        raise FormatError(f"{path} is not a readable .npz archive: {exc}", "source") from None
-    missing = [key for key in _REQUIRED if key not in contents]
-    if missing:
+def _header(archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: str) -> tuple:
+    """Shape and dtype of an ``.npy`` member, from its first bytes alone."""
+    with archive.open(info) as member:
+        version = np.lib.format.read_magic(member)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(member)
+        elif version in ((2, 0), (3, 0)):
+            shape, _, dtype = np.lib.format.read_array_header_2_0(member)
+        else:
+            raise FormatError(f"{path}: member {info.filename} is .npy version {version}",
+                              "source")  # fmt: skip
+    return tuple(int(x) for x in shape), np.dtype(dtype)
+
+
+def _check_member(key: str, shape: tuple, dtype: np.dtype, path: str, limit) -> int:
+    """The member's size in numbers, after checking its kind and its rows."""
+    kinds = _TEXT_KINDS if key in ("channels", "source", "units") else _NUMBER_KINDS
+    if dtype.kind not in kinds or dtype.hasobject or len(shape) > 2:
         raise FormatError(
-            f"{path} lacks the array(s) {', '.join(missing)}; it is not a brdffit .npz file "
-            f"(it holds {', '.join(sorted(contents)) or 'nothing'})",
-            missing[0],
+            f"{path}: the array {key!r} is {dtype} with shape {list(shape)}; a brdffit .npz "
+            f"file stores it as {'text' if kinds == _TEXT_KINDS else 'numbers'} with at "
+            "most 2 dimensions",
+            key,
         )
-    version = int(contents.get("format_version", FORMAT_VERSION))
+    if key in ("format_version", "angles_in_degrees", "source", "units") and shape:
+        raise FormatError(f"{path}: {key!r} has shape {list(shape)}; it is one value", key)
+    if shape:
+        check_samples(shape[0], limit, path, f"the header of its array {key!r}")
+    return math.prod(shape) * max(1, dtype.itemsize // 8)
+
+
+def _load(raw: bytes, path: str, limit) -> dict:
+    """The arrays of a brdffit archive, their headers checked before decompressing any."""
+    with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+        members = {info.filename[:-4]: info for info in archive.infolist()
+                   if info.filename.endswith(".npy")}  # fmt: skip
+        wanted = [key for key in _KNOWN if key in members]
+        missing = [key for key in _REQUIRED if key not in members]
+        if missing:
+            raise FormatError(
+                f"{path} lacks the array(s) {', '.join(missing)}; it is not a brdffit .npz "
+                f"file (it holds {', '.join(sorted(members)) or 'nothing'})",
+                missing[0],
+            )
+        headers = {key: _header(archive, members[key], path) for key in wanted}
+        total = sum(_check_member(key, *headers[key], path, limit) for key in wanted)
+        if limit is not None and total > ELEMENTS_PER_SAMPLE * limit:
+            raise FormatError(
+                f"{path}: its arrays hold {total:,} numbers, more than the "
+                f"{ELEMENTS_PER_SAMPLE} per sample of the sample limit {limit:,} allow "
+                "(read's max_samples)",
+                "source",
+            )
+        contents = {}
+        for key in wanted:
+            with archive.open(members[key]) as member:
+                contents[key] = np.lib.format.read_array(member, allow_pickle=False)
+    return contents
+
+
+def _version(value, path: str) -> int:
+    version = int(value) if np.ndim(value) == 0 else -1
+    if version < 0:
+        raise FormatError(
+            f"{path}: format_version {value!r} is not a whole number >= 0", "format_version"
+        )
     if version > FORMAT_VERSION:
         raise FormatError(
             f"{path} has format_version {version}; this brdffit reads up to {FORMAT_VERSION}",
             "format_version",
         )
+    return version
+
+
+def read_npz(source, max_samples: int | None = DEFAULT_MAX_SAMPLES) -> Measurements:
+    """Read an archive written by :func:`write_npz` from a path, bytes or a binary file
+    object.
+
+    Only the arrays of the format are read, and each one's ``.npy`` header (shape
+    and dtype) is checked before anything is decompressed: at most
+    ``max_samples`` rows, and at most :data:`~brdffit.io.limits.ELEMENTS_PER_SAMPLE`
+    numbers per sample of that limit in all (:mod:`brdffit.io.limits`), so an
+    archive that would inflate beyond it costs only its headers.
+    """
+    source = as_source(source)
+    path, raw = source.name, source.read()
+    try:
+        contents = _load(raw, path, max_samples)
+    except (zipfile.BadZipFile, zlib.error, ValueError, OSError, EOFError,
+            NotImplementedError, RuntimeError) as exc:  # fmt: skip
+        if isinstance(exc, FormatError):
+            raise
+        raise FormatError(
+            f"{path} is not a readable .npz archive: {type(exc).__name__}: {exc}", "source"
+        ) from exc
+    _version(contents.get("format_version", FORMAT_VERSION), path)
     try:
         data = Measurements(
             contents["wi"],

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..data.measurements import Measurements
 from ..errors import FormatError
+from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source
 from .table import build
 
@@ -54,8 +55,18 @@ def _numbers(tokens: list, lines: np.ndarray, where: str) -> np.ndarray:
     return numbers
 
 
-def parse_pbrt(text: str, where: str = "<pbrt text>") -> Measurements:
-    """Measurements from the text of a pbrt-v2 ``.brdf`` file; ``where`` names it in errors."""
+def parse_pbrt(text: str, where: str = "<pbrt text>", angle_unit: str = "radians",
+               max_samples: int | None = DEFAULT_MAX_SAMPLES) -> Measurements:  # fmt: skip
+    """Measurements from the text of a pbrt-v2 ``.brdf`` file; ``where`` names it in errors.
+
+    The format's angles are radians; ``angle_unit="degrees"`` reads a file written
+    in degrees.
+    """
+    if angle_unit not in ("radians", "degrees"):
+        raise FormatError(
+            f"angle_unit={angle_unit!r} is not known; it must be 'radians' or 'degrees'",
+            "angle_unit",
+        )
     tokens, lines = _tokens(text)
     if not tokens:
         raise FormatError(f"{where} holds no numbers; a pbrt .brdf file starts with W", "data")
@@ -76,17 +87,20 @@ def parse_pbrt(text: str, where: str = "<pbrt text>") -> Measurements:
             f"not a whole number of records of 4 + {w} = {size} (a truncated file?)",
             "data",
         )
+    check_samples(rest.size // size, max_samples, where, "its count of numbers")
     records = rest.reshape(-1, size)
     record_lines = lines[1 + w :: size]
     channels = [f"{x:g}nm" for x in wavelengths]
     angles = tuple(records[:, j] for j in range(4))
     source = os.path.basename(str(where))
-    return build(where, angles, records[:, 4:], channels, None, record_lines, False, source,
+    degrees = angle_unit == "degrees"
+    return build(where, angles, records[:, 4:], channels, None, record_lines, degrees, source,
                  "1/sr")  # fmt: skip
 
 
-def read_pbrt(source) -> Measurements:
+def read_pbrt(source, angle_unit: str = "radians",
+              max_samples: int | None = DEFAULT_MAX_SAMPLES) -> Measurements:  # fmt: skip
     """Read a pbrt-v2 irregularly sampled isotropic ``.brdf`` file from a path, bytes or
-    a binary file object."""
+    a binary file object (angles in radians unless ``angle_unit='degrees'``)."""
     source = as_source(source)
-    return parse_pbrt(source.text(), source.name)
+    return parse_pbrt(source.text(), source.name, angle_unit, max_samples)

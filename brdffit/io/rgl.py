@@ -61,6 +61,7 @@ import numpy as np
 
 from ..errors import FormatError
 from ..notes import note
+from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source
 from .tensor_file import DTYPES, MAGIC, TensorField, read_tensor_file
 
@@ -311,20 +312,34 @@ def _incident_slice(f: dict, k: int) -> tuple:
     return wi, wo, values, np.stack([sx, sy], axis=1), merged
 
 
-def read_rgl_arrays(source) -> RglSamples:
+def _checked_slice(f: dict, k: int, path) -> tuple:
+    """:func:`_incident_slice`, with a table that cannot be sampled named as the file's fault."""
+    try:
+        return _incident_slice(f, k)
+    except ValueError as exc:  # a vndf table whose density integrates to zero
+        raise FormatError(
+            f"{path}: the vndf table of incident node {k} (field 'vndf', data from byte "
+            f"{f['vndf'].offset}) cannot be used: {exc}",
+            "source",
+        ) from exc
+
+
+def read_rgl_arrays(source, max_samples: int | None = DEFAULT_MAX_SAMPLES) -> RglSamples:
     """Read an isotropic RGB RGL material file (a path, bytes or a binary file object)
-    into arrays (see the module doc)."""
+    into arrays (see the module doc); at most ``max_samples`` stored pairs
+    (:mod:`brdffit.io.limits`)."""
     source = as_source(source)
     path, fields = source.name, read_tensor_file(source)
     f = _check_layout(fields, path)
     parts, n_incident, n_merged = [], 0, 0
     n_theta, (ny, nx) = f["theta_i"].shape[0], f["rgb"].shape[3:]
+    check_samples(n_theta * ny * nx, max_samples, path, f"the rgb field (byte {f['rgb'].offset})")
     for k in range(n_theta):
         theta_i = float(f["theta_i"].data[k])
         if not math.cos(theta_i) > HORIZON_COS:
             n_incident += ny * nx
             continue
-        wi, wo, values, sample, merged = _incident_slice(f, k)
+        wi, wo, values, sample, merged = _checked_slice(f, k, path)
         n_merged += merged
         parts.append((wi, wo, values, sample, np.full(len(wi), k)))
     if not parts:
@@ -350,7 +365,7 @@ def read_rgl_arrays(source) -> RglSamples:
     )
 
 
-def read_rgl(source):
+def read_rgl(source, max_samples: int | None = DEFAULT_MAX_SAMPLES):
     """Read an isotropic RGB RGL ``.bsdf`` file as :class:`~brdffit.Measurements`.
 
     Channels r, g, b (linear sRGB, as stored), units 1/sr. A ``UserWarning``
@@ -360,7 +375,7 @@ def read_rgl(source):
     from ..data.measurements import Measurements
 
     source = as_source(source)
-    path, s = source.name, read_rgl_arrays(source)
+    path, s = source.name, read_rgl_arrays(source, max_samples)
     dropped = s.n_incident_below_horizon + s.n_below_horizon + s.n_merged
     if dropped:
         note(

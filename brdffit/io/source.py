@@ -93,9 +93,15 @@ class Source:
         return self.read()[:size]
 
     def text(self) -> str:
-        """The source decoded as UTF-8, or FormatError naming it."""
+        """The source decoded as UTF-8, or FormatError naming it.
+
+        A byte order mark, which spreadsheets write at the start of a saved file,
+        is skipped: UTF-8's, or UTF-16's (then the text is decoded as UTF-16).
+        """
+        raw = self.read()
+        encoding = "utf-16" if raw.startswith((b"\xff\xfe", b"\xfe\xff")) else "utf-8-sig"
         try:
-            return self.read().decode("utf-8")
+            return raw.decode(encoding)
         except UnicodeDecodeError as exc:
             raise FormatError(
                 f"{self.name} is not a UTF-8 text file (byte {exc.start} cannot be decoded); "

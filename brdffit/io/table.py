@@ -14,14 +14,25 @@ import warnings
 
 import numpy as np
 
+from ..data.angle_units import radians_note, radians_suspected
 from ..data.measurements import ANGLE_COLUMNS, Measurements
 from ..errors import DataError, FormatError
+from ..notes import note
 
-__all__ = ["build", "from_table", "number_table", "require_finite"]
+__all__ = ["SEPARATORS", "build", "from_table", "number_table", "require_finite"]
+
+#: The column separators a table may use, with the names messages give them.
+SEPARATORS = {",": "comma", ";": "semicolon", "\t": "tab"}
+
+#: How a user states the angle unit, for the note that angles look like radians.
+STATE_UNIT = (
+    "read(..., angle_unit='radians'), brdffit fit --angle-unit radians, or a line "
+    "'# angle_unit: radians' before the CSV header"
+)
 
 
-def number_table(rows: list, lines: list, names: list, where: str) -> tuple:
-    """Split rows on commas and convert them to a float table, naming any bad place.
+def number_table(rows: list, lines: list, names: list, where: str, sep: str = ",") -> tuple:
+    """Split rows on ``sep`` and convert them to a float table, naming any bad place.
 
     ``rows`` are the data lines, ``lines`` their 1-based line numbers in the
     file ``where``. Returns ``(table, text_columns)``: a column whose every
@@ -33,17 +44,17 @@ def number_table(rows: list, lines: list, names: list, where: str) -> tuple:
         with warnings.catch_warnings():
             # loadtxt warns instead of failing on some malformed input; the slow path names it.
             warnings.simplefilter("error")
-            table = np.loadtxt(rows, delimiter=",", ndmin=2, dtype=float, comments=None)
+            table = np.loadtxt(rows, delimiter=sep, ndmin=2, dtype=float, comments=None)
         if table.shape[1] == len(names):
             return table, []
     except (ValueError, UserWarning):
         pass
-    fields = [row.split(",") for row in rows]
+    fields = [row.split(sep) for row in rows]
     for line, row in zip(lines, fields):
         if len(row) != len(names):
             raise FormatError(
-                f"{where}, line {line}: {len(row)} comma-separated fields where the header "
-                f"names {len(names)} ({', '.join(names)})",
+                f"{where}, line {line}: {len(row)} {SEPARATORS.get(sep, repr(sep))}-separated "
+                f"fields where the header names {len(names)} ({', '.join(names)})",
                 "data",
             )
     columns = [np.full(len(rows), np.nan) for _ in names]
@@ -86,7 +97,16 @@ def require_finite(table: np.ndarray, names: list, lines: list, where: str) -> N
 
 
 def build(where, angles, values, channels, sigma, lines, degrees, source, units):
-    """Measurements from four angle columns, with file-and-line errors for bad angles."""
+    """Measurements from four angle columns, with file-and-line errors for bad angles.
+
+    ``degrees`` None reads degrees that nobody stated, and notes when they look
+    like radians (:func:`~brdffit.data.measurements.radians_suspected`).
+    """
+    if degrees is None:
+        if radians_suspected(*angles):
+            largest = float(max(np.max(angles[0]), np.max(angles[2])))
+            note(radians_note(where, largest, STATE_UNIT), stacklevel=4)
+        degrees = True
     top = 180.0 if degrees else np.pi
     for name, column in zip(ANGLE_COLUMNS, angles):
         if name.startswith("theta"):
@@ -109,7 +129,7 @@ def build(where, angles, values, channels, sigma, lines, degrees, source, units)
         raise FormatError(f"{where}: {exc}", exc.field) from None
 
 
-def _columns(names: list, line: int, where: str):
+def _columns(names: list, line: int, where: str, sep: str = ","):
     """Indices of the angles, the channels and the sigma columns, checked."""
     problems = []
     if any(not name for name in names):
@@ -125,20 +145,24 @@ def _columns(names: list, line: int, where: str):
     if orphans:
         problems.append(f"{', '.join(orphans)} name(s) no channel")
     if problems:
+        split = f"split on {SEPARATORS.get(sep, repr(sep))}s, it names {', '.join(names)!r}"
+        if len(names) == 1:
+            split = "it has no comma, semicolon or tab between column names"
         raise FormatError(
-            f"{where}, line {line}: bad header ({'; '.join(problems)}); it must name "
+            f"{where}, line {line}: bad header ({'; '.join(problems)}; {split}); it must name "
             f"{', '.join(ANGLE_COLUMNS)}, the channels, and optionally sigma_<channel>",
             "header",
         )
     return channels
 
 
-def from_table(where, names, header_line, rows, lines, degrees, source, units) -> Measurements:
-    """Measurements from named comma-separated rows (CSV and ASTM share this)."""
-    channels = _columns(names, header_line, where)
+def from_table(where, names, header_line, rows, lines, degrees, source, units,
+               sep=",") -> Measurements:  # fmt: skip
+    """Measurements from named rows separated by ``sep`` (CSV and ASTM share this)."""
+    channels = _columns(names, header_line, where, sep)
     if not rows:
         raise FormatError(f"{where} has a header but no data rows", "data")
-    table, text_columns = number_table(rows, lines, names, where)
+    table, text_columns = number_table(rows, lines, names, where, sep)
     channels = [n for n in channels if n not in text_columns]
     if not channels:
         raise FormatError(f"{where}, line {header_line}: no numeric channel column", "header")

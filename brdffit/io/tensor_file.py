@@ -27,6 +27,8 @@ from .source import as_source
 __all__ = ["DTYPES", "MAGIC", "TensorField", "read_tensor_file"]
 
 MAGIC = b"tensor_file\x00"
+#: The most dimensions a field may have (NumPy's own limit is 64; RGL fields have <= 5).
+MAX_NDIM = 32
 DTYPES = {1: "u1", 2: "i1", 3: "<u2", 4: "<i2", 5: "<u4", 6: "<i4", 7: "<u8", 8: "<i8"}
 DTYPES.update({9: "<f2", 10: "<f4", 11: "<f8"})
 
@@ -70,6 +72,12 @@ def _field_header(raw: bytes, pos: int, index: int, path) -> tuple:
         ) from None
     pos += 2 + length
     ndim, code, offset = _unpack(raw, "<HBQ", pos, f"header of field {name!r}", path)
+    if ndim > MAX_NDIM:
+        raise FormatError(
+            f"{path}: field {name!r} has {ndim} dimensions (header at byte {pos}); a tensor "
+            f"has at most {MAX_NDIM}",
+            "source",
+        )
     if code not in DTYPES:
         raise FormatError(
             f"{path}: field {name!r} has the unknown dtype code {code} at byte {pos + 2}; "
