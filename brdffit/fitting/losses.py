@@ -20,6 +20,13 @@ the number of values ``M * C`` (a mean), except for ``chi2``, which is a sum.
   largest ``|y|`` (guards zeros).
 - ``chi2``: ``t(f) = f / sigma`` with the data's per-sample sigma (a sum, not
   a mean; needs sigma).
+- ``mixed``: ``t(f) = f / s`` with ``s^2 = a^2 + (b f_hat)^2``, a noise model
+  with an absolute floor ``a`` and a relative part ``b`` estimated together
+  with the fit, ``f_hat`` the model's prediction (:mod:`brdffit.fitting.noise`:
+  iteratively reweighted least squares with the variance function estimated
+  by maximum likelihood, Carroll and Ruppert 1988, "Transformation and
+  Weighting in Regression", ch. 2-3). A sum, like chi2. The default for data
+  without sigma.
 
 The fitting engine solves the linear coefficients by weighted least squares
 in the Gauss-Newton linearisation of ``t`` (exact in one step for the losses
@@ -48,6 +55,8 @@ class LossContext:
     y: np.ndarray
     sigma: np.ndarray | None
     weights: np.ndarray | None
+    #: The standard deviations (M, C) of the fitted noise model (the ``mixed`` loss).
+    noise_sigma: np.ndarray | None = None
 
     @property
     def y_scale(self) -> np.ndarray:
@@ -66,6 +75,8 @@ class Loss:
     reference: str
     needs_sigma: bool = False
     is_sum: bool = False
+    #: Weighted by a noise model estimated with the fit (``LossContext.noise_sigma``).
+    needs_noise: bool = False
 
     def value(self, pred: np.ndarray, ctx: LossContext) -> float:
         """The exact loss of predictions ``pred`` (M, C) against ``ctx.y``."""
@@ -107,6 +118,12 @@ def _cbrt_floor(ctx):
 
 def _relative_scale(ctx):
     return np.maximum(np.abs(ctx.y), 1e-3 * ctx.y_scale)
+
+
+def _noise_sigma(ctx):
+    if ctx.noise_sigma is None:
+        raise FitError("the mixed loss needs the fitted noise model's sigma", "loss")
+    return ctx.noise_sigma
 
 
 def _sigma(ctx):
@@ -170,6 +187,16 @@ LOSSES: dict[str, Loss] = {
             "chi-square with the data's sigma",
             needs_sigma=True,
             is_sum=True,
+        ),
+        Loss(
+            "mixed",
+            lambda f, ctx: f / _noise_sigma(ctx),
+            lambda f, ctx: 1.0 / _noise_sigma(ctx) * np.ones_like(f),
+            True,
+            "sum of ((f - y) / s)^2, s^2 = a^2 + (b f)^2 estimated with the fit",
+            "Carroll and Ruppert 1988, Transformation and Weighting in Regression, ch. 2-3",
+            is_sum=True,
+            needs_noise=True,
         ),
     )
 }

@@ -11,6 +11,7 @@ shared by all channels.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 
 import numpy as np
@@ -54,6 +55,10 @@ class Problem:
         Non-negative per-sample weights (scaled to mean 1).
     fixed : mapping, optional
         Parameters held at given values (linear ones may be per channel).
+    noise_sigma : array_like (N, C), optional
+        The standard deviations of the fitted noise model, for the ``mixed`` loss
+        (:mod:`brdffit.fitting.noise`); without them it starts with ones (plain
+        least squares), and :meth:`reweighted` sets them.
     """
 
     def __init__(
@@ -64,6 +69,7 @@ class Problem:
         weights=None,
         fixed: Mapping | None = None,
         energy_conserving: bool = False,
+        noise_sigma=None,
     ):
         self.data = data
         self.model = get_model(model)
@@ -82,7 +88,7 @@ class Problem:
             [np.log10(p.upper) if p.log_scale else p.upper for p in self.free_shape]
         )
         self._set_coefficients()
-        self._set_targets(weights)
+        self._set_targets(weights, noise_sigma)
         self._check_size()
         self.energy = None
         if energy_conserving:
@@ -143,8 +149,16 @@ class Problem:
             bounds = np.array([b for _, b in self.model.coefficient_constraints], dtype=float)
             self.coef_constraints = (rows[:, self.coef_index], bounds)
 
-    def _set_targets(self, weights):
+    def reweighted(self, noise_sigma) -> Problem:
+        """A copy of this problem (same geometry, model, bounds) whose ``mixed`` loss
+        uses the noise model's standard deviations ``noise_sigma`` (N, C)."""
+        out = copy.copy(self)
+        out._set_targets(self.user_weights, noise_sigma)
+        return out
+
+    def _set_targets(self, weights, noise_sigma=None):
         g = self.geometry
+        self.user_weights = weights
         y_all = np.asarray(self.data.values, dtype=float)
         sigma = self.data.sigma
         if self.loss.needs_sigma and sigma is None:
@@ -160,6 +174,8 @@ class Problem:
                 raise FitError("weights must be finite, non-negative and not all zero", "weights")
             w = w / w.mean()
         valid = g.valid
+        noise = self._noise_sigma(noise_sigma, y_all.shape)
+        self.noise_sigma = noise
         self.y = y_all[valid] if not g.all_valid else y_all
         self.invalid_y = None if g.all_valid else y_all[~valid]
         self.ctx = LossContext(
@@ -167,22 +183,35 @@ class Problem:
             y=self.y,
             sigma=None if sigma is None else (sigma if g.all_valid else sigma[valid]),
             weights=None if w is None else (w if g.all_valid else w[valid]),
+            noise_sigma=None if noise is None else (noise if g.all_valid else noise[valid]),
         )
         # Below the horizon every model is 0: those samples add a constant to the loss.
         self.invalid_loss = 0.0
         if self.invalid_y is not None and self.invalid_y.size:
-            self.invalid_loss = self._invalid_contribution(y_all, sigma, w, valid)
+            self.invalid_loss = self._invalid_contribution(y_all, sigma, w, valid, noise)
         self.w_lin, self.z_lin = _compact_weights(*self.loss.linearised(self.y, self.ctx))
         # For quadratic losses the target never changes: W y and y'Wy are reused
         # by every evaluation of a model without an offset.
         self._weighted = weighted_target(self.z_lin, self.w_lin) if self.loss.linear else None
 
-    def _invalid_contribution(self, y_all, sigma, w, valid) -> float:
+    def _noise_sigma(self, noise_sigma, shape):
+        """The noise model's sigma (N, C) for a loss that needs one (ones to start), else None."""
+        if not self.loss.needs_noise:
+            return None
+        if noise_sigma is None:
+            return np.ones(shape)
+        noise = np.broadcast_to(np.asarray(noise_sigma, dtype=float), shape)
+        if not (np.isfinite(noise).all() and (noise > 0).all()):
+            raise FitError("the noise model's sigma must be finite and positive", "noise")
+        return noise
+
+    def _invalid_contribution(self, y_all, sigma, w, valid, noise=None) -> float:
         ctx = LossContext(
             cos_i=np.maximum(self.data.wi[~valid, 2], 0.0),
             y=y_all[~valid],
             sigma=None if sigma is None else sigma[~valid],
             weights=None if w is None else w[~valid],
+            noise_sigma=None if noise is None else noise[~valid],
         )
         total = self.loss.value(np.zeros_like(ctx.y), ctx) * self.loss.norm(ctx)
         return total

@@ -1,0 +1,201 @@
+"""The noise of measurements without sigma: ``sigma^2 = a^2 + (b f)^2``, estimated with the fit.
+
+Most measured BRDF files give no per-sample sigma. A gonioreflectometer's error
+grows with the signal (a relative part ``b``) above a floor near zero (an
+absolute part ``a``, dark current, stray light). Plain least squares assumes
+constant noise, so the highlight, hundreds of times brighter than the rest,
+decides the fit; weighting by the measured values instead (``relative``) fails
+where they are near or below zero.
+
+The default loss of data without sigma, ``mixed``, therefore fits the model
+and the variance function together, by iteratively reweighted least squares
+with the variance function estimated by maximum likelihood from the residuals
+(Carroll and Ruppert 1988, "Transformation and Weighting in Regression",
+Chapman and Hall, ch. 2 and 3: generalised least squares with an estimated
+variance function; the weights are built from the model's prediction, never
+from the measured values, which their ch. 2 shows is what keeps the estimate
+consistent):
+
+1. round 0: the usual global search and polishes with unit weights (``l2``);
+2. each further round: ``(a, b)`` by maximum likelihood of the residuals
+   ``r = y - f`` under ``N(0, a^2 + b^2 f^2)`` (:func:`estimate`), then a local
+   polish from the current point with weights ``1 / (a^2 + (b f)^2)``, ``f``
+   the current prediction; the linear coefficients stay solved exactly at every
+   step (variable projection), only the shape parameters are searched;
+3. it stops when ``(a, b)`` change by less than :data:`TOLERANCE` or after
+   :data:`ROUNDS` rounds.
+
+``a`` has a floor of :data:`FLOOR` times the median prediction, so that a
+prediction of zero never gets an infinite weight.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from .engine import search
+
+__all__ = ["FLOOR", "ROUNDS", "TOLERANCE", "NoiseModel", "estimate", "reweight"]
+
+#: Reweighting rounds after the first fit, at most.
+ROUNDS = 4
+#: Relative change of a and b below which the rounds stop.
+TOLERANCE = 0.01
+#: The absolute floor a is at least this times the median |prediction| (a prediction
+#: of zero then never gets an infinite weight).
+FLOOR = 1e-3
+#: Points of the grid of the noise model's ratio b^2 f^2 / a^2 (see :func:`estimate`).
+GRID = 49
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Gaussian noise with ``sigma^2 = a^2 + (b f)^2`` about the model's value ``f``.
+
+    Attributes
+    ----------
+    a : float
+        The absolute floor, in the units of the data (1/sr).
+    b : float
+        The relative part (a fraction of the value).
+    """
+
+    a: float
+    b: float
+
+    def sigma(self, f) -> np.ndarray:
+        """The standard deviation at model values ``f``."""
+        f = np.asarray(f, dtype=float)
+        return np.sqrt(self.a**2 + (self.b * f) ** 2)
+
+    def close_to(self, other: NoiseModel, tol: float) -> bool:
+        return all(
+            abs(u - v) <= tol * max(abs(u), abs(v), 1e-300)
+            for u, v in ((self.a, other.a), (self.b, other.b))
+        )
+
+    def to_dict(self) -> dict:
+        return {"model": "mixed", "a": float(self.a), "b": float(self.b)}
+
+
+def estimate(resid, pred, weights=None) -> NoiseModel:
+    """Maximum-likelihood ``(a, b)`` of residuals ``resid`` at predictions ``pred``.
+
+    Maximises the Gaussian likelihood of the residuals with variance
+    ``s_i = a^2 + b^2 f_i^2`` (Carroll and Ruppert 1988, sec. 3.2, the
+    pseudo-likelihood of the variance function). Written as
+    ``s_i = c (1 + rho g_i)`` (``g = f^2`` scaled to mean 1), the scale ``c``
+    has the closed form ``c(rho) = sum u r^2 / (1 + rho g) / sum u``, so the
+    likelihood is profiled over the one ratio ``rho``: a grid of
+    :data:`GRID` values of ``log10 rho`` in [-12, 12] (the profile can have
+    more than one local optimum), refined by a bounded Brent search around the
+    best, and the two pure forms (``rho = 0``, only ``a``; ``rho -> inf``, only
+    ``b`` above the floor) compared with it. ``a`` keeps its floor
+    (:data:`FLOOR`).
+
+    Parameters
+    ----------
+    resid, pred : array_like (M, C)
+    weights : array_like (M,), optional
+        Sample weights ``u`` (a sample of weight 0 does not count).
+    """
+    r2 = np.asarray(resid, dtype=float) ** 2
+    g = np.asarray(pred, dtype=float) ** 2
+    u = np.ones(r2.shape[0]) if weights is None else np.asarray(weights, dtype=float)
+    u = np.broadcast_to(u[:, None], r2.shape)
+    keep = (u > 0) & np.isfinite(r2) & np.isfinite(g)
+    r2, g, u = r2[keep], g[keep], u[keep] / u[keep].mean() if keep.any() else u[keep]
+    if not r2.size:
+        return NoiseModel(0.0, 0.0)
+    g_scale = max(float(np.average(g, weights=u)), 1e-300)
+    gn = g / g_scale
+    p_min = max((FLOOR * float(np.median(np.sqrt(g)))) ** 2, 1e-30 * float(np.mean(r2)), 1e-300)
+
+    def profile(log_rho: float) -> tuple[float, float]:
+        """(-log-likelihood per unit weight, c) at ratio 10**log_rho."""
+        if log_rho >= 15.0:  # the pure relative form, with the floor
+            c = max(float(np.average(r2 / np.maximum(gn, 1e-300), weights=u)), 1e-300)
+            s = np.maximum(c * gn, p_min)
+        else:
+            v = 1.0 + 10.0**log_rho * gn
+            c = max(float(np.average(r2 / v, weights=u)), 1e-300)
+            s = np.maximum(c * v, p_min)
+        return float(np.average(np.log(s) + r2 / s, weights=u)), c
+
+    grid = np.linspace(-12.0, 12.0, GRID)
+    values = [profile(x)[0] for x in grid]
+    i = int(np.argmin(values))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, GRID - 1)]
+    found = minimize_scalar(lambda x: profile(x)[0], bounds=(lo, hi), method="bounded",
+                            options={"xatol": 1e-4})  # fmt: skip
+    best = min(
+        [(found.fun, float(found.x)), (values[i], float(grid[i])), (profile(15.0)[0], 15.0)]
+    )
+    _, c = profile(best[1])
+    if best[1] >= 15.0:
+        return NoiseModel(math.sqrt(p_min), math.sqrt(c / g_scale))
+    rho = 10.0 ** best[1]
+    return NoiseModel(math.sqrt(max(c, p_min)), math.sqrt(c * rho / g_scale))
+
+
+def _round_noise(problem, found) -> tuple:
+    """The prediction (N, C) at the search's best point and the noise estimated there."""
+    params = problem.params_of(found.best)
+    pred = problem.predict(params)
+    y = np.asarray(problem.data.values, dtype=float)
+    valid = problem.geometry.valid
+    weights = problem.user_weights
+    noise = estimate(
+        (y - pred)[valid], pred[valid], None if weights is None else np.asarray(weights)[valid]
+    )
+    return pred, noise
+
+
+def reweight(problem, found, code, options, t0: float):
+    """The reweighting rounds of the ``mixed`` loss after the first search.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem of the first search (unit weights for the ``mixed`` loss).
+    found, code
+        What :func:`brdffit.fitting.engine.search` returned for it.
+    options : FitOptions
+        The fit's resolved options: the rounds share its ``max_evals`` and
+        ``timeout`` (the deadline counts from ``t0``).
+
+    Returns
+    -------
+    problem, found, code, NoiseModel or None
+        The problem whose weights the final search used, that search (its
+        ``n_evals`` counts every round), its nlopt code, and the noise model
+        of those weights; unchanged with None for every other loss.
+    """
+    if not problem.loss.needs_noise or found.best is None:
+        return problem, found, code, None
+    local = replace(options, global_algorithm=None, restarts=0)
+    used = None
+    for _ in range(ROUNDS):
+        if found.stopped:
+            break
+        pred, noise = _round_noise(problem, found)
+        if used is not None and noise.close_to(used, TOLERANCE):
+            break
+        remaining = options.max_evals - found.n_evals
+        if remaining < 1:
+            break
+        used = noise
+        problem = problem.reweighted(noise.sigma(pred))
+        again, code = search(problem, replace(local, max_evals=remaining), found.best_x, True, t0)
+        again.n_evals += found.n_evals
+        found = again
+    if used is None:
+        # No round could run (budget, deadline): the noise is estimated at the point
+        # found, and the loss reported with it.
+        pred, used = _round_noise(problem, found)
+        problem = problem.reweighted(used.sigma(pred))
+    return problem, found, code, used
