@@ -51,12 +51,26 @@ class FitResult:
         it; ``options["weights"]`` summarises the per-sample weights (``count``,
         ``min``, ``max``, ``zeros``) or is None.
     at_bounds : tuple of str
-        Shape parameters that ended at a bound of their range.
+        Free parameters that ended at a bound of their range: shape parameters, and
+        linear ones (``kd``, ``ks``...) at a bound in any channel.
+    unidentified : mapping
+        Free parameters that the data do not constrain, name -> why in words
+        (:mod:`brdffit.fitting.identifiability`: an anisotropy the geometry cannot
+        show, a singular Fisher information, a relative width above 1). Their
+        values are the fit's, not the material's.
     posterior : Posterior or None
         The posterior, when the fit was asked for ``uncertainty``.
     weights : ndarray (N,) or None
         The per-sample weights the fit used, as given (read-only; not in
         :meth:`to_dict`, whose ``options`` summarise them).
+    noise : mapping or None
+        The noise model of the likelihood: ``model`` (``mixed``: ``sigma^2 = a^2 +
+        (b f)^2`` estimated with the fit, :mod:`brdffit.fitting.noise`; ``given``:
+        the data's sigma; ``loss``: constant on the loss's transformed values),
+        ``a``, ``b`` (None unless estimated) and its ``meaning``.
+    misfit : mapping or None
+        Whether the residuals are systematic (:mod:`brdffit.fitting.misfit`):
+        ``detected``, the test statistics and a ``message``.
     """
 
     model: str
@@ -78,9 +92,12 @@ class FitResult:
     at_bounds: tuple = ()
     posterior: Any = None
     weights: np.ndarray | None = field(default=None, repr=False, compare=False)
+    unidentified: Mapping[str, str] = field(default_factory=dict)
+    noise: Mapping[str, Any] | None = None
+    misfit: Mapping[str, Any] | None = None
 
     def __post_init__(self):
-        for name in ("params", "metrics", "fixed", "options"):
+        for name in ("params", "metrics", "fixed", "options", "unidentified"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
         if self.weights is not None:
             weights = np.array(self.weights, dtype=float)
@@ -111,6 +128,9 @@ class FitResult:
             "fixed": jsonable(dict(self.fixed)),
             "options": jsonable(dict(self.options)),
             "at_bounds": list(self.at_bounds),
+            "unidentified": dict(self.unidentified),
+            "noise": jsonable(dict(self.noise)) if self.noise is not None else None,
+            "misfit": jsonable(dict(self.misfit)) if self.misfit is not None else None,
         }
         if self.posterior is not None:
             out["posterior"] = self.posterior.to_dict()
@@ -123,6 +143,11 @@ class FitResult:
         for name, value in self.params.items():
             lines.append(f"  {name} = {_fmt(value)}")
         lines.append(f"  {self.n_evals} evaluations, {self.seconds:.3g} s; {self.message}")
+        if self.noise is not None and self.noise.get("model") == "mixed":
+            lines.append(
+                f"  noise model: sigma^2 = a^2 + (b f)^2, a = {self.noise['a']:.3g}, "
+                f"b = {self.noise['b']:.3g} (estimated with the fit)"
+            )
         return "\n".join(lines)
 
 
@@ -144,7 +169,9 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
     """
     out = {}
     for name, loss in LOSSES.items():
-        if loss.needs_sigma and ctx.sigma is None:
+        if (loss.needs_sigma and ctx.sigma is None) or (
+            loss.needs_noise and ctx.noise_sigma is None
+        ):
             continue
         out[name] = loss.value(pred, ctx)
     resid = pred - y
