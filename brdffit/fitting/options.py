@@ -57,10 +57,12 @@ class FitOptions:
     Attributes
     ----------
     loss : str, optional
-        ``l2``, ``cosine``, ``log``, ``cbrt``, ``relative`` or ``chi2``
+        ``l2``, ``cosine``, ``log``, ``cbrt``, ``relative``, ``chi2`` or ``mixed``
         (:mod:`brdffit.fitting.losses`). Default: ``chi2`` when the data give
         per-sample sigma (weighted least squares, the maximum-likelihood fit for
-        Gaussian noise of that sigma), ``l2`` otherwise.
+        Gaussian noise of that sigma), ``mixed`` otherwise: the noise
+        ``sigma^2 = a^2 + (b f)^2`` estimated with the fit
+        (:mod:`brdffit.fitting.noise`), as measured data without sigma need.
     weights : array_like (N,), optional
         Per-sample weights (finite, >= 0, not all 0).
     fixed : mapping, optional
@@ -159,10 +161,10 @@ class FitOptions:
         )
 
     def with_loss(self, has_sigma: bool) -> FitOptions:
-        """The loss's default filled in: ``chi2`` when the data give sigma, else ``l2``."""
+        """The loss's default filled in: ``chi2`` when the data give sigma, else ``mixed``."""
         if self.loss is not None:
             return self
-        return replace(self, loss="chi2" if has_sigma else "l2")
+        return replace(self, loss="chi2" if has_sigma else "mixed")
 
     def with_budgets(self, dim: int) -> FitOptions:
         """The budgets' defaults filled in; they grow with the ``dim`` free shape
