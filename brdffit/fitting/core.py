@@ -31,6 +31,8 @@ from ..errors import DataError, FitError
 from ..models import get_model
 from .engine import CONVERGED, FitProgress, StopFit, reason, search
 from .losses import LossContext
+from .misfit import assess
+from .noise import reweight
 from .options import DEFAULT_GLOBAL, DEFAULT_LOCAL, FitOptions
 from .problem import BAD_LOSS, Problem
 from .result import FitResult, metrics_of
@@ -78,7 +80,10 @@ def fit(data, model, **options) -> FitResult:
     t0 = perf_counter()
     opts, problem, x_start = _prepare(data, model, options)
     found, code = search(problem, opts, x_start, bool(opts.start), t0)
+    # The mixed loss (the default without sigma) reweights by its fitted noise model.
+    problem, found, code, noise = reweight(problem, found, code, opts, t0)
     result = _result(problem, found, code, opts, perf_counter() - t0)
+    result = replace(result, **assess(problem, result, noise))
     if opts.uncertainty:
         from ..posterior.sample import sample_posterior
 
@@ -158,11 +163,20 @@ def _start(problem: Problem, start) -> np.ndarray | None:
                                   **(start or {})})  # fmt: skip
 
 
-def _at_bounds(problem: Problem, x: np.ndarray) -> tuple:
+def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:
+    """The free parameters at a bound of their range: shape parameters in the search
+    space, linear ones (kd, ks...) in any channel (the solve clips them there)."""
     out = []
     for p, v, lo, hi in zip(problem.free_shape, x, problem.lower, problem.upper):
         tol = 1e-6 * max(hi - lo, 1e-12)
         if v <= lo + tol or v >= hi - tol:
+            out.append(p.name)
+    for p in problem.model.linear_params:
+        if p.name in problem.fixed:
+            continue
+        value = np.asarray(params[p.name], dtype=float)
+        tol = 1e-9 * ((p.upper if np.isfinite(p.upper) else 1.0) - p.lower)
+        if np.any(value <= p.lower + tol) or np.any(value >= p.upper - tol):
             out.append(p.name)
     return tuple(out)
 
@@ -180,10 +194,13 @@ def _result(problem: Problem, found, code, opts: FitOptions, seconds: float) -> 
     n_params = problem.dim + len(problem.free_coefs) * problem.n_channels
     metrics = metrics_of(problem.predict(params), y, ctx, n_params)
     converged = code in CONVERGED and found.best.loss < BAD_LOSS and not found.stopped
-    at_bounds = _at_bounds(problem, found.best_x) if problem.dim else ()
+    at_bounds = _at_bounds(problem, found.best_x if problem.dim else (), params)
+    unidentified = _unidentified(problem, params)
     message = ("converged: " if converged else "not converged: ") + (found.stopped or reason(code))
     if at_bounds:
         message += "; at a bound of its range: " + ", ".join(at_bounds)
+    if unidentified:
+        message += "; not identified by the data: " + ", ".join(unidentified)
     if problem.energy is not None:
         message += _energy_note(problem, params, metrics)
     return FitResult(
@@ -205,7 +222,19 @@ def _result(problem: Problem, found, code, opts: FitOptions, seconds: float) -> 
         options=opts.record(),
         at_bounds=at_bounds,
         weights=opts.weights,
+        unidentified=unidentified,
     )
+
+
+def _unidentified(problem: Problem, params: Mapping) -> dict:
+    """The parameters the data do not constrain, with why
+    (:mod:`brdffit.fitting.identifiability`); none where the check cannot be made."""
+    from .identifiability import unidentified
+
+    try:
+        return unidentified(problem, params)
+    except (np.linalg.LinAlgError, FloatingPointError, ValueError):
+        return {}
 
 
 def _energy_note(problem: Problem, params: dict, metrics: dict) -> str:
