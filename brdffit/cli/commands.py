@@ -83,6 +83,8 @@ def angle_columns(items) -> tuple:
 def read_data(args):
     """``brdffit.read`` of ``args.file`` with ``--format``, ``--subsample``, ``--channels``."""
     options = {"subsample": args.subsample} if getattr(args, "subsample", None) else {}
+    if getattr(args, "angle_unit", None):
+        options["angle_unit"] = args.angle_unit
     data = brdffit.read(args.file, format=getattr(args, "format", None), **options)
     if getattr(args, "channels", None):
         data = data.select_channels([c.strip() for c in args.channels.split(",") if c.strip()])

@@ -73,6 +73,11 @@ def _add_fit_options(p) -> None:
     p.add_argument("--format", help="the file's format when its name does not tell it")
     p.add_argument("--subsample", type=_count, help="MERL: keep every k-th cell per axis")
     p.add_argument(
+        "--angle-unit",
+        choices=("degrees", "radians"),
+        help="the unit of the file's angles (CSV: degrees unless stated; ASTM, pbrt: radians)",
+    )
+    p.add_argument(
         "--loss",
         choices=list(LOSSES),
         help="the loss (default: chi2 when the data give sigma, else l2)",

@@ -172,3 +172,15 @@ def test_a_header_that_is_not_split_says_which_separator_was_used():
     text = "theta_i;phi_i;theta_o;phi_o;value\n10;0;10;180;0.5;7\n"
     with pytest.raises(FormatError, match=r"line 2: 6 semicolon-separated fields"):
         brdffit.read(named(text.encode(), "extra.csv"))
+
+
+def test_the_command_line_warns_of_radians_and_takes_angle_unit(tmp_path, capsys):
+    from brdffit.cli.main import main
+
+    path = tmp_path / "ward_rad.csv"
+    path.write_text(in_radians(ward_text()))
+    assert main(["fit", str(path), "--model", "lambert", "--json"]) == 0
+    err = capsys.readouterr().err
+    assert "brdffit: warning: " + str(path) + ": the angles are read as degrees" in err
+    assert main(["fit", str(path), "--model", "lambert", "--json", "--angle-unit", "radians"]) == 0
+    assert "look like radians" not in capsys.readouterr().err
