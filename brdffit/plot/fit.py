@@ -171,18 +171,19 @@ def _corner_text(ax, lines, where="lower left") -> None:
     if lines:
         x, ha = (0.01, "left") if where.endswith("left") else (0.99, "right")
         y, va = (0.02, "bottom") if where.startswith("lower") else (0.98, "top")
-        ax.text(x, y, "\n".join(lines), transform=ax.transAxes, ha=ha, va=va, fontsize=7,
-                color="0.25", gid="note")  # fmt: skip
+        text = ax.text(x, y, "\n".join(lines), transform=ax.transAxes, ha=ha, va=va,
+                       fontsize=7, color="0.25", gid="note", wrap=True,
+                       bbox={"fc": "white", "alpha": 0.8, "lw": 0})  # fmt: skip
+        text.set_in_layout(False)
 
 
 def slice_note(group: PlaneSlice) -> str:
-    """What the panel of ``group`` says about its azimuth slice."""
+    """What the panel of ``group`` says about its azimuth slice (a short line)."""
     if group.offset <= PLANE_TOLERANCE:
         return f"samples within {PLANE_TOLERANCE:g}° of the plane of incidence"
     return (
-        f"no sample in the plane: nearest azimuth slice, φo − φi = "
-        f"{_side(group.backward)} | {_side(group.forward)} (≤ {group.offset:.3g}° off the "
-        f"plane, tolerance {SLICE_TOLERANCE:g}°); model drawn there"
+        f"nearest azimuth slice: φo − φi = {_side(group.backward)} | {_side(group.forward)}"
+        f"\n(≤ {group.offset:.3g}° off the plane; tolerance {SLICE_TOLERANCE:g}°)"
     )
 
 

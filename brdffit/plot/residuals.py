@@ -64,8 +64,8 @@ class Residuals:
         out = []
         if self.outside:
             out.append(
-                f"{plural(self.outside, 'point')} beyond the axis limits (robust: 3 IQR past "
-                "the quartiles), drawn as triangles at the edge"
+                f"{plural(self.outside, 'point')} beyond the axis limits (3 IQR past the "
+                "quartiles),\ndrawn as triangles at the edge"
             )
         if self.undefined:
             why = "fitted value 0: relative residual undefined" if self.label == RELATIVE_LABEL \

@@ -147,7 +147,7 @@ def test_tabulated_cells_get_the_nearest_azimuth_slice_stated_on_the_plot():
     result = brdffit.fit(data, "blinn", seed=0)
     fig = fit_figure(data, result)
     panel = next(ax for ax in fig.axes if ax.get_title().startswith("incidence θi = 45"))
-    assert "nearest azimuth slice, φo − φi = 1° | 179°" in _notes(panel)
+    assert "nearest azimuth slice: φo − φi = 1° | 179°" in _notes(panel)
     # the model is drawn at the slice's azimuths: it passes through the measured points
     curve = panel.lines[1]
     x, y = curve.get_xdata(), curve.get_ydata()
