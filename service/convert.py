@@ -95,6 +95,8 @@ def read_upload(content: bytes, filename: str | None, format: str | None, subsam
     upload = io.BytesIO(content)
     upload.name = filename or UNNAMED_UPLOAD
     options = {} if subsample is None else {"subsample": subsample}
+    if limit is not None:  # the reader refuses more before allocating (an NPZ zip bomb)
+        options["max_samples"] = limit
     try:
         with collecting() as notes:
             data = brdffit.read(upload, format=format, **options)
