@@ -1,0 +1,301 @@
+"""Which fitted parameters the data do not constrain.
+
+A fit always returns numbers; some of them the data cannot have decided. Two
+checks, run on every fit, name those parameters with the reason
+(:attr:`brdffit.fitting.result.FitResult.unidentified`):
+
+1. **Azimuth coverage (anisotropic models).** A BRDF is anisotropic when it
+   changes as the surface turns about its normal with the relative geometry
+   held, i.e. with the incidence azimuth ``phi_i`` at fixed ``theta_i``,
+   ``theta_o`` and ``phi_o - phi_i``. Data measured at one incidence azimuth
+   (every ``phi_i`` the same, up to the mirror symmetries ``phi -> -phi`` and
+   ``phi -> pi - phi`` of the anisotropic lobes here) never turn the surface:
+   an isotropic material and an anisotropic one agree on all of them once the
+   lobe's in-plane and cross-plane widths are fitted. The anisotropy parameters
+   then describe the lobe's shape in the plane of incidence, not the material,
+   and are reported unidentified. (Samples within 1 degree of the normal carry
+   no incidence azimuth and do not count.)
+2. **Fisher information.** At the optimum, the Jacobian ``J`` of the weighted
+   residuals (the Gauss-Newton linearisation of the fit's loss,
+   :meth:`brdffit.fitting.losses.Loss.linearised`) with respect to every free
+   parameter (shape parameters in the search space, log10 for log-scale ones;
+   each channel's linear coefficients; coefficients at a bound of their range
+   are held there by it and left out) gives the Fisher information
+   ``F = J^T W J / s^2`` (``s^2 = 1`` for ``chi2``, else the residual variance
+   ``RSS / (n - p)``), whose inverse is the covariance of the estimate to
+   first order (Bates and Watts, *Nonlinear Regression Analysis and Its
+   Applications*, Wiley 1988, sections 2.2 and 3.5). ``F`` is scaled to unit
+   diagonal; a direction whose eigenvalue is below :data:`RANK_RTOL` of the
+   largest is one along which the data change the fit by nothing
+   (rank-deficient ``F``), and every parameter with weight in it is
+   unidentified. For the other shape parameters, the relative 1-sigma width
+   (``ln 10 sd(log10 p)`` for log-scale ones, ``sd / |p|`` otherwise) above
+   :data:`MAX_RELATIVE_WIDTH` means the data do not fix even the parameter's
+   order of magnitude.
+
+The Jacobian is taken by central differences (one-sided at a bound) on the
+model's own evaluation, in the parameters as reported.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import fields, replace
+
+import numpy as np
+
+__all__ = ["ANISOTROPY", "MAX_RELATIVE_WIDTH", "RANK_RTOL", "unidentified"]
+
+#: The parameters that make each anisotropic model anisotropic (its isotropic
+#: reduced form has them equal, or at zero). Anisotropic models not listed here
+#: are anisotropic by construction: all their shape parameters count.
+ANISOTROPY = {
+    "ggx_anisotropic": ("alpha_u", "alpha_v"),
+    "beckmann_anisotropic": ("alpha_u", "alpha_v"),
+    "ward_anisotropic": ("alpha_x", "alpha_y"),
+    "ashikhmin_shirley": ("nu", "nv"),
+    "ashikhmin_phong": ("nu", "nv"),
+    "mitsuba_roughconductor_anisotropic": ("alpha_u", "alpha_v"),
+    "mitsuba_principled_anisotropic": ("anisotropic",),
+    "gltf_pbr_anisotropic": ("anisotropy_strength", "anisotropy_rotation"),
+}
+#: Eigenvalue of the unit-diagonal Fisher information, relative to its largest, below
+#: which a direction counts as unconstrained (a singular value 1e-6 of the largest:
+#: far above the round-off of the differences, far below any real effect).
+RANK_RTOL = 1e-12
+#: Relative 1-sigma width above which a shape parameter counts as unconstrained.
+MAX_RELATIVE_WIDTH = 1.0
+#: Step of the central differences, in the search space (log10 or a share of the range).
+STEP = 1e-4
+#: Incidence angles (degrees) below this carry no azimuth.
+NORMAL_INCIDENCE = 1.0
+#: Folded incidence azimuths within this many degrees count as one.
+SAME_AZIMUTH = 1.0
+
+
+def unidentified(problem, params) -> dict:
+    """Name -> reason for every free parameter of a fit that the data do not constrain.
+
+    Parameters
+    ----------
+    problem : Problem
+        The fit's problem (its data, model, loss, weights and fixed parameters).
+    params : mapping
+        The fitted parameters, as reported.
+
+    Returns
+    -------
+    dict
+        Parameter name -> the reason in words; empty when the data constrain every one.
+    """
+    out: dict[str, list] = {}
+    for name, why in _azimuth_coverage(problem).items():
+        out.setdefault(name, []).append(why)
+    for name, why in _fisher(problem, dict(params)).items():
+        out.setdefault(name, []).append(why)
+    return {name: "; ".join(reasons) for name, reasons in out.items()}
+
+
+def _anisotropy_params(problem) -> list:
+    """The free parameters that carry the anisotropy of the model (or of its lobes)."""
+    model = problem.model
+    if model.classification.symmetry != "anisotropic":
+        return []
+    free = [p.name for p in problem.free_shape]
+    names = []
+    for name in free:
+        label, _, own = name.rpartition(".")
+        component = _component_model(label or model.name)
+        if component is None or component.classification.symmetry != "anisotropic":
+            continue
+        if own in ANISOTROPY.get(component.name, tuple(p.name for p in component.shape_params)):
+            names.append(name)
+    return names
+
+
+def _component_model(label: str):
+    """The registered model of a component label (``ggx_anisotropic_2`` -> ggx_anisotropic)."""
+    from ..models import REGISTRY
+
+    if label in REGISTRY:
+        return REGISTRY[label]
+    base, _, number = label.rpartition("_")
+    return REGISTRY.get(base) if number.isdigit() else None
+
+
+def _azimuth_coverage(problem) -> dict:
+    names = _anisotropy_params(problem)
+    if not names:
+        return {}
+    theta_i, phi_i, _, _ = problem.data.angles()
+    tilted = np.asarray(theta_i) >= NORMAL_INCIDENCE
+    if not tilted.any():
+        return {}
+    folded = np.mod(np.asarray(phi_i)[tilted], 180.0)
+    folded = np.minimum(folded, 180.0 - folded)  # the lobes' mirror symmetries
+    if np.ptp(folded) > SAME_AZIMUTH:
+        return {}
+    why = (
+        f"every sample has the incidence azimuth phi_i = {float(np.median(folded)):.3g} deg "
+        "(up to mirror symmetry): the surface is never turned, so anisotropy (a change "
+        "with phi_i) cannot show in these data"
+    )
+    return {name: why for name in names}
+
+
+#: At most this many Jacobian entries (rows x columns) are formed; above it a seeded
+#: subset of the samples is used and the information scaled back to all of them.
+MAX_ENTRIES = 20_000_000
+
+
+def _fisher(problem, params: dict) -> dict:
+    """Unidentified parameters by the rank of the Fisher information and the widths."""
+    rows = _rows(problem)
+    base = _predict(problem, params, rows)
+    w, target = problem.loss.linearised(base, _context(problem, rows))
+    w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], base.shape)
+    names, kinds, columns = _jacobian(problem, params, rows, base)
+    if not columns:
+        return {}
+    sqrt_w = np.sqrt(w).ravel()
+    jac = np.stack([c.ravel() * sqrt_w for c in columns], axis=1)
+    info = jac.T @ jac * (problem.geometry.m / len(rows))
+    dof = max(base.size * problem.geometry.m / len(rows) - len(names), 1.0)
+    s2 = 1.0 if problem.loss.needs_sigma else float(np.sum(w * (target - base) ** 2)) / dof
+    return _judge(names, kinds, info / max(s2, 1e-300), params, problem)
+
+
+def _rows(problem) -> np.ndarray:
+    """The valid samples used (all, or a seeded subset of them for very large data)."""
+    m = problem.geometry.m
+    n_cols = len(problem.free_shape) + len(problem.free_coefs) * problem.n_channels
+    keep = max(int(MAX_ENTRIES / max(n_cols * problem.n_channels, 1)), 1000)
+    if m <= keep:
+        return np.arange(m)
+    return np.sort(np.random.default_rng(0).choice(m, keep, replace=False))
+
+
+def _context(problem, rows):
+    """The loss context of the samples ``rows`` (every per-sample field subset)."""
+    ctx = problem.ctx
+    if len(rows) == problem.geometry.m:
+        return ctx
+    m = problem.geometry.m
+    subset = {}
+    for f in fields(ctx):
+        value = getattr(ctx, f.name)
+        if isinstance(value, np.ndarray) and value.shape[:1] == (m,):
+            subset[f.name] = value[rows]
+    return replace(ctx, **subset)
+
+
+def _predict(problem, params: dict, rows) -> np.ndarray:
+    """The model at the valid samples ``rows``, (M, C)."""
+    values = np.asarray(problem.model.evaluate_prepared(problem.geometry, params, check=False))
+    if not problem.geometry.all_valid:
+        values = values[problem.geometry.valid]
+    if values.ndim == 1:
+        values = np.repeat(values[:, None], problem.n_channels, axis=1)
+    return values[rows]
+
+
+def _jacobian(problem, params: dict, rows, base) -> tuple:
+    """Names, kinds (``log``, ``linear`` shape; ``coef``) and Jacobian columns (M, C)."""
+    names, kinds, columns = [], [], []
+    for p in problem.free_shape:
+        lo, hi = (math.log10(p.lower), math.log10(p.upper)) if p.log_scale else (p.lower, p.upper)
+        x = math.log10(params[p.name]) if p.log_scale else float(params[p.name])
+        h = STEP * (1.0 if p.log_scale else hi - lo)
+        up, down = min(x + h, hi), max(x - h, lo)
+        values = [10.0**v if p.log_scale else v for v in (up, down)]
+        diff = _predict(problem, {**params, p.name: values[0]}, rows)
+        diff = diff - _predict(problem, {**params, p.name: values[1]}, rows)
+        names.append(p.name)
+        kinds.append("log" if p.log_scale else "linear")
+        columns.append(diff / (up - down))
+    for p in problem.model.linear_params:
+        if p.name not in problem.fixed:
+            for label, column in _coefficient_columns(problem, params, rows, base, p):
+                names.append(label)
+                kinds.append("coef")
+                columns.append(column)
+    return names, kinds, columns
+
+
+def _coefficient_columns(problem, params, rows, base, p):
+    """(label, column) of linear parameter ``p`` in each channel where it is inside
+    its range (at a bound, the bound decides it)."""
+    value = np.broadcast_to(np.asarray(params[p.name], dtype=float), (problem.n_channels,))
+    span = (p.upper if math.isfinite(p.upper) else 1.0) - p.lower
+    for c in range(problem.n_channels):
+        if not p.lower + 1e-9 * span < value[c] < p.upper - 1e-9 * span:
+            continue
+        h = 1e-3 * span
+        shifted = value.copy()
+        shifted[c] = value[c] + h if value[c] + h < p.upper else value[c] - h
+        diff = _predict(problem, {**params, p.name: _as_param(shifted)}, rows) - base
+        label = p.name if problem.n_channels == 1 else f"{p.name}[{problem.data.channels[c]}]"
+        yield label, diff / (shifted[c] - value[c])
+
+
+def _as_param(values: np.ndarray):
+    return float(values[0]) if values.size == 1 else values
+
+
+def _judge(names, kinds, info, params, problem) -> dict:
+    """Null directions of the unit-diagonal information, then the shape widths."""
+    out = {}
+    scale = np.sqrt(np.diag(info))
+    dead = scale <= 1e-300 * max(scale.max(), 1e-300)
+    for i in np.flatnonzero(dead):
+        out[names[i]] = "the fitted model does not change with it at the data's directions"
+    live = np.flatnonzero(~dead)
+    if live.size == 0:
+        return _by_parameter(out)
+    unit = info[np.ix_(live, live)] / np.outer(scale[live], scale[live])
+    eigval, eigvec = np.linalg.eigh(unit)
+    null = eigval < RANK_RTOL * eigval.max()
+    for k in np.flatnonzero(null):
+        weight = eigvec[:, k] ** 2
+        involved = [live[i] for i in np.flatnonzero(weight > 0.01 * weight.max())]
+        for i in involved:
+            others = [names[j] for j in involved if j != i]
+            out.setdefault(
+                names[i],
+                "the data do not separate it from "
+                + (", ".join(others) or "nothing")
+                + " (their combination leaves the fit unchanged: the Fisher information is "
+                "singular)",
+            )
+    keep = ~null
+    cov = (eigvec[:, keep] / eigval[keep]) @ eigvec[:, keep].T
+    for pos, i in enumerate(live):
+        if names[i] in out or kinds[i] == "coef":
+            continue
+        sd = math.sqrt(max(cov[pos, pos], 0.0)) / scale[i]
+        value = float(params[names[i]])
+        width = math.log(10.0) * sd if kinds[i] == "log" else sd / max(abs(value), 1e-300)
+        if width > MAX_RELATIVE_WIDTH:
+            out[names[i]] = (
+                f"the data constrain it only to a relative width of {width:.3g} "
+                "(1 sigma, from the Fisher information)"
+            )
+    return _by_parameter(out)
+
+
+def _by_parameter(out: dict) -> dict:
+    """Per-channel entries (``kd[r]``) gathered under their parameter's name."""
+    merged: dict = {}
+    for name, why in out.items():
+        base, bracket, channel = name.partition("[")
+        if bracket:
+            merged.setdefault(base, {}).setdefault(why, []).append(channel.rstrip("]"))
+        else:
+            merged[name] = {why: []}
+    return {
+        name: "; ".join(
+            why if not channels else f"channel(s) {', '.join(channels)}: {why}"
+            for why, channels in reasons.items()
+        )
+        for name, reasons in merged.items()
+    }

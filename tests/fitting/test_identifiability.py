@@ -1,0 +1,96 @@
+"""Parameters the data cannot identify are named in the result, and compare does not
+crown a model for them (issue 17).
+
+Both failed before: a fit said nothing of parameters its data could not decide
+(``FitResult.unidentified`` did not exist), and compare ranked
+``ashikhmin_shirley`` first on the car paint, measured at phi_i = 0 only.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import shared_file
+
+import brdffit
+
+TRUTH = {"alpha_u": 0.1, "alpha_v": 0.3, "kd": 0.3, "ks": 0.8}
+
+
+def in_plane(azimuths=(0.0,)) -> tuple:
+    """Angles of a goniometer that keeps wo in the plane of incidence, at the given
+    incidence azimuths."""
+    theta_i = np.repeat([10.0, 20.0, 30.0, 40.0, 50.0, 60.0], 60)
+    theta_o = np.tile(np.linspace(0.0, 85.0, 30).repeat(2), 6)
+    out = []
+    for phi in azimuths:
+        phi_i = np.full(theta_i.size, phi)
+        phi_o = phi_i + np.tile([0.0, 180.0], theta_i.size // 2)
+        out.append((theta_i, phi_i, theta_o, phi_o))
+    return tuple(np.concatenate(a) for a in zip(*out))
+
+
+@pytest.fixture(scope="module")
+def car_paint():
+    """20,000 samples of the NVIDIA car paint (every one at phi_i = 0)."""
+    data = brdffit.read(shared_file("nvidia", "carpaint_red.mbsdf"))
+    index = np.sort(np.random.default_rng(0).choice(data.n, 20_000, replace=False))
+    return data.subset(index)
+
+
+def test_in_plane_data_do_not_identify_the_anisotropy():
+    data = brdffit.synthesize("ggx_anisotropic", TRUTH, geometry=in_plane(), noise=0.01)
+    result = brdffit.fit(data, "ggx_anisotropic")
+    assert set(result.unidentified) >= {"alpha_u", "alpha_v"}
+    assert "incidence azimuth" in result.unidentified["alpha_u"]
+    # In the plane of incidence alpha_v only scales the lobe, as ks does: the
+    # Fisher information is singular along their combination.
+    assert "singular" in result.unidentified["alpha_v"]
+    assert "alpha_v" in result.unidentified["ks"]
+    assert "not identified by the data: alpha_u, alpha_v" in result.message
+    assert result.to_dict()["unidentified"] == dict(result.unidentified)
+
+
+def test_the_isotropic_model_on_the_same_data_is_identified():
+    data = brdffit.synthesize("ggx_anisotropic", TRUTH, geometry=in_plane(), noise=0.01)
+    result = brdffit.fit(data, "ggx")
+    assert dict(result.unidentified) == {}
+    assert "not identified" not in result.message
+
+
+def test_two_incidence_azimuths_identify_the_anisotropy():
+    data = brdffit.synthesize(
+        "ggx_anisotropic", TRUTH, geometry=in_plane((0.0, 90.0)), noise=0.01
+    )
+    result = brdffit.fit(data, "ggx_anisotropic")
+    assert dict(result.unidentified) == {}
+    assert result.params["alpha_u"] == pytest.approx(0.1, rel=0.05)
+    assert result.params["alpha_v"] == pytest.approx(0.3, rel=0.05)
+
+
+def test_an_unseen_lobe_has_an_unidentified_shape():
+    """With ks = 0 (or 1e-15) in every channel the data cannot see the lobe's shape."""
+    data = brdffit.synthesize("lambert", {"kd": [0.6, 0.35, 0.2]})
+    result = brdffit.fit(data, "blinn", loss="l2")
+    assert np.all(np.asarray(result.params["ks"]) < 1e-9)
+    assert "n" in result.unidentified, result.message
+
+
+def test_the_car_paint_anisotropy_is_flagged(car_paint):
+    result = brdffit.fit(car_paint, "ggx_anisotropic", loss="l2")
+    assert set(result.unidentified) == {"alpha_u", "alpha_v"}
+    assert "phi_i = 0 deg" in result.unidentified["alpha_u"]
+    assert dict(brdffit.fit(car_paint, "ggx", loss="l2").unidentified) == {}
+
+
+def test_compare_does_not_crown_an_unidentified_anisotropy(car_paint):
+    comparison = brdffit.compare(car_paint, ["ashikhmin_shirley", "ggx_anisotropic", "ggx"],
+                                 loss="l2")  # fmt: skip
+    by_name = {e.model: e for e in comparison.entries}
+    # Without the rule the anisotropic fits have the lower BIC (more freedom).
+    assert by_name["ashikhmin_shirley"].bic < by_name["ggx"].bic
+    assert comparison.best_by_bic == "ggx"
+    assert comparison.best_by_heldout == "ggx"
+    assert by_name["ggx"].rank_bic == 1 and by_name["ggx"].rank_heldout == 1
+    text = str(comparison)
+    assert "ashikhmin_shirley *" in text and "do not identify" in text
