@@ -24,6 +24,8 @@ NOISE_MEANING = {
     "(units of the data for l2 and cosine, a multiple of sigma for chi2)",
     "relative": "estimated: a standard deviation proportional to each measured value "
     "(noise is the fraction)",
+    "mixed": "the fit's noise model sigma^2 = a^2 + (b f)^2 (a, b estimated with the fit); "
+    "noise is the sampled multiple of it",
 }
 
 
