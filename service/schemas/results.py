@@ -140,7 +140,16 @@ class FitResultOut(BaseModel):
     options: OptionsOut = Field(
         description="The options of the fit, defaults resolved: enough to reproduce it."
     )
-    at_bounds: list[str] = Field(description="Shape parameters that ended at a bound.")
+    at_bounds: list[str] = Field(
+        description="Free parameters that ended at a bound: shape ones, and linear ones "
+        "(kd, ks...) at a bound in any channel."
+    )
+    unidentified: dict[str, str] = Field(
+        default_factory=dict,
+        description="Free parameters the data do not constrain, name -> why (an "
+        "anisotropy the geometry cannot show, a singular Fisher information, a wide "
+        "relative width): their values are the fit's, not the material's.",
+    )
     posterior: PosteriorOut | None = Field(
         None, description="The posterior, when `uncertainty` was asked for."
     )
