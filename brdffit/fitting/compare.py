@@ -9,6 +9,12 @@ options, and ranks the models two ways:
   parameter count can game.
 
 When the two rankings disagree the table shows it; neither is hidden.
+
+A fit with parameters the data cannot identify
+(:attr:`~brdffit.fitting.result.FitResult.unidentified`, e.g. an anisotropic
+model on data measured at one incidence azimuth) is ranked, in both rankings,
+after every fit without such parameters, and marked ``*`` in the table: its
+better numbers come from parameters the data do not decide.
 """
 
 from __future__ import annotations
@@ -96,9 +102,15 @@ class Comparison:
         )
         rows = [head, "-" * len(head)]
         for e in self.entries:
+            name = e.model + (" *" if e.fit.unidentified else "")
             rows.append(
-                f"{e.model:<40} {e.bic:>14.6g} {e.heldout_rmse:>14.6g} {e.rank_bic:>9d} "
+                f"{name:<40} {e.bic:>14.6g} {e.heldout_rmse:>14.6g} {e.rank_bic:>9d} "
                 f"{e.rank_heldout:>14d}"
+            )
+        if any(e.fit.unidentified for e in self.entries):
+            rows.append(
+                "* has parameters the data do not identify (FitResult.unidentified): "
+                "ranked after the models without"
             )
         rows.append(
             f"trained on {self.n_train} samples, held out {self.n_test} "
@@ -107,8 +119,9 @@ class Comparison:
         return "\n".join(rows)
 
 
-def _ranks(values) -> list:
-    order = np.argsort(values, kind="stable")
+def _ranks(values, demoted) -> list:
+    """Ranks by ``values``, the ``demoted`` entries after all the others."""
+    order = np.lexsort((np.asarray(values, dtype=float), np.asarray(demoted, dtype=bool)))
     ranks = np.empty(len(values), dtype=int)
     ranks[order] = np.arange(1, len(values) + 1)
     return [int(r) for r in ranks]
@@ -154,7 +167,8 @@ def compare(
         rmse.append(math.sqrt(float(np.mean((pred - ctx.y) ** 2))))
         held.append(loss.value(pred, ctx))
     bic = [r.metrics["bic"] for r in fits]
-    rank_bic, rank_held = _ranks(bic), _ranks(rmse)
+    demoted = [bool(r.unidentified) for r in fits]
+    rank_bic, rank_held = _ranks(bic, demoted), _ranks(rmse, demoted)
     entries = [
         ComparisonEntry(m.name, r, b, r.metrics["aic"], e, h, rb, rh)
         for m, r, b, e, h, rb, rh in zip(models, fits, bic, rmse, held, rank_bic, rank_held)
