@@ -139,11 +139,24 @@ def fit_text(data, result, label: str) -> str:
         f"{result.n_evals} evaluations in {result.seconds:.2f} s",
         f"fit: {result.message}",
     ]
+    if result.unidentified:
+        lines.append(unidentified_line(result.unidentified))
     if post is not None:
         lines.append(
             f"posterior: {post.message} ({post.seconds:.1f} s; noise: {post.noise_meaning})"
         )
     return "\n".join(lines)
+
+
+def unidentified_line(unidentified) -> str:
+    """One line: the parameters the data do not identify, grouped by reason."""
+    by_reason: dict = {}
+    for name, reasons in unidentified.items():
+        for why in reasons.split("; "):
+            by_reason.setdefault(why, []).append(name)
+    return "NOT IDENTIFIED by these data (values not to be trusted): " + "; ".join(
+        f"{', '.join(names)}: {why}" for why, names in by_reason.items()
+    )
 
 
 def shout(*lines: str) -> None:

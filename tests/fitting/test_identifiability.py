@@ -59,9 +59,7 @@ def test_the_isotropic_model_on_the_same_data_is_identified():
 
 
 def test_two_incidence_azimuths_identify_the_anisotropy():
-    data = brdffit.synthesize(
-        "ggx_anisotropic", TRUTH, geometry=in_plane((0.0, 90.0)), noise=0.01
-    )
+    data = brdffit.synthesize("ggx_anisotropic", TRUTH, geometry=in_plane((0.0, 90.0)), noise=0.01)
     result = brdffit.fit(data, "ggx_anisotropic")
     assert dict(result.unidentified) == {}
     assert result.params["alpha_u"] == pytest.approx(0.1, rel=0.05)
@@ -94,3 +92,15 @@ def test_compare_does_not_crown_an_unidentified_anisotropy(car_paint):
     assert by_name["ggx"].rank_bic == 1 and by_name["ggx"].rank_heldout == 1
     text = str(comparison)
     assert "ashikhmin_shirley *" in text and "do not identify" in text
+
+
+def test_the_command_line_says_it_in_one_line(tmp_path, capsys):
+    from brdffit.cli.main import main
+
+    path = tmp_path / "in_plane.csv"
+    brdffit.write(path, brdffit.synthesize("ggx_anisotropic", TRUTH, geometry=in_plane(),
+                                           noise=0.01))  # fmt: skip
+    assert main(["fit", str(path), "--model", "ggx_anisotropic"]) == 0
+    lines = [x for x in capsys.readouterr().out.splitlines() if x.startswith("NOT IDENTIFIED")]
+    assert len(lines) == 1
+    assert "alpha_u, alpha_v: every sample has the incidence azimuth phi_i = 0" in lines[0]
