@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FitError
+from ..fitting.noise import NoiseModel
 from ..fitting.problem import Problem
 from ..fitting.result import FitResult
 from .chain import (
@@ -60,6 +61,11 @@ from .target import NOISE_MODELS, Target
 __all__ = ["Posterior", "PosteriorProgress", "sample_posterior", "NOISE_MODELS", "NOISE_MEANING"]
 
 NOISE_NAME = "noise"
+#: What a posterior's message says when its fit's residuals are systematic.
+CONDITIONAL = (
+    "CONDITIONAL ON THE MODEL: the fit's residuals are systematic (misfit), so these "
+    "intervals hold only if the model were right"
+)
 #: Independent draws when there is nothing to sample by MCMC (no shape parameter, noise given).
 IID_DRAWS = 4000
 
@@ -103,7 +109,7 @@ def _check_options(
     if seed is not None:
         _whole(seed, "seed", 0)
     if noise is None:
-        noise = "given" if data.sigma is not None else "absolute"
+        noise = _default_noise(data, fit_result)
     if noise not in NOISE_MODELS:
         raise FitError(f"noise={noise!r} must be one of {', '.join(NOISE_MODELS)}", "noise")
     if noise == "given" and data.sigma is None:
@@ -115,6 +121,14 @@ def _check_options(
     if progress is not None and not callable(progress):
         raise FitError("progress must be a callable taking a PosteriorProgress", "progress")
     return noise
+
+
+def _default_noise(data, fit_result) -> str:
+    """The fit's own noise model: ``mixed`` after a mixed fit, ``given`` with sigma,
+    else ``absolute`` (constant on the loss's transformed values)."""
+    if fit_result.loss_name == "mixed":
+        return "mixed"
+    return "given" if data.sigma is not None else "absolute"
 
 
 def _whole(value, name: str, least: int, alternative: str = ""):
@@ -160,8 +174,10 @@ def sample_posterior(
     seed : int, optional
         Seeds the walkers, the moves and the coefficient draws (default: the fit's
         seed); the same seed gives the same samples.
-    noise : {"given", "absolute", "relative"}, optional
-        Default ``"given"`` when the data have sigma, else ``"absolute"``
+    noise : {"given", "absolute", "relative", "mixed"}, optional
+        Default: the fit's: ``"mixed"`` after a fit with the ``mixed`` loss (the
+        default without sigma: the fitted ``sigma^2 = a^2 + (b f)^2``), else
+        ``"given"`` when the data have sigma, else ``"absolute"``
         (:mod:`brdffit.posterior.target`).
     progress : callable, optional
         Called with a :class:`PosteriorProgress` at every convergence check.
@@ -186,6 +202,8 @@ def sample_posterior(
     common = _common(problem, target, theta, coefs)
     common.update(noise=noise, chain=chain, n_walkers=walkers, seed=seed)
     seconds = time.perf_counter() - t0
+    if fit_result.misfit and fit_result.misfit.get("detected"):
+        energy_note = "; ".join(x for x in (energy_note, CONDITIONAL) if x)
     return _posterior(common, info, max_seconds, seconds, energy_note, kept_fraction)
 
 
@@ -256,6 +274,7 @@ def _target(data, fit_result, noise, walkers: int):
         weights=weights,
         fixed=dict(fit_result.fixed),
     )
+    problem = _with_noise_model(problem, fit_result)
     if weights is not None:
         # Mean 1 over the samples that count: a zero weight removes a sample from
         # the likelihood, it does not lend its information to the others.
@@ -264,6 +283,17 @@ def _target(data, fit_result, noise, walkers: int):
     target = Target(problem, noise, problem.x_from_params(fit_result.params), weights)
     _check_dimensions(target, walkers)
     return problem, target
+
+
+def _with_noise_model(problem, fit_result):
+    """The problem of a ``mixed`` fit weighted by its noise model at its prediction."""
+    noise = fit_result.noise
+    if not problem.loss.needs_noise:
+        return problem
+    if not noise or noise.get("model") != "mixed":
+        raise FitError("a fit with the mixed loss must carry its noise model", "fit_result")
+    pred = problem.predict(dict(fit_result.params))
+    return problem.reweighted(NoiseModel(noise["a"], noise["b"]).sigma(pred))
 
 
 def _thin(info) -> int:

@@ -19,6 +19,12 @@ chi2): ``t(f) - t(y) ~ t'(y) (f - y)``. Each value then has a precision
   (1/sr for l2 and cosine; a multiple of sigma for chi2);
 * ``relative``: the noise is proportional to the measured value,
   ``w = u_m / max(|y_mc|, 1e-3 max_m |y_mc|)^2``; ``noise`` is a fraction.
+* ``mixed``: the fit's own noise model (the ``mixed`` loss, the default
+  without sigma: :mod:`brdffit.fitting.noise`), ``w = u_m / s_mc^2`` with
+  ``s^2 = a^2 + (b f)^2`` at the fitted ``a``, ``b`` and prediction ``f``;
+  its shape (the ratio of ``a`` to ``b``) is profiled at the fit's estimate
+  and ``noise``, the multiple of ``s``, is sampled (near 1 when the fit's
+  estimate holds).
 
 ``u_m`` are the fit's sample weights (1 without). Estimated noise is one extra
 sampled parameter, ``log10(noise)``, shared by all channels.
@@ -68,7 +74,7 @@ from .truncnorm import LOG_2PI, draw_box_gaussian, log_mass
 
 __all__ = ["Target", "NOISE_MODELS"]
 
-NOISE_MODELS = ("given", "absolute", "relative")
+NOISE_MODELS = ("given", "absolute", "relative", "mixed")
 #: Walkers per vectorised design call: (64, 10^4) arrays stay a few MB.
 BATCH = 64
 #: Relative ridge on the Gram matrices (see the module docstring).
@@ -87,7 +93,7 @@ class Target:
     Parameters
     ----------
     problem : Problem
-    noise : {"given", "absolute", "relative"}
+    noise : {"given", "absolute", "relative", "mixed"}
     x_fit : (n_shape,) array
         The fitted shape parameters in search space; they centre the noise prior.
     weights : (N,) array or None
@@ -131,6 +137,12 @@ class Target:
         u = np.ones(data.n) if weights is None else np.asarray(weights, dtype=float)
         if self.noise == "given":
             w = u[:, None] / np.asarray(data.sigma) ** 2
+        elif self.noise == "mixed":
+            if p.noise_sigma is None:
+                raise FitError(
+                    "noise='mixed' needs a fit with the mixed loss (its noise model)", "noise"
+                )
+            w = u[:, None] / p.noise_sigma**2
         elif self.noise == "relative":
             floor = 1e-3 * np.maximum(np.abs(y).max(axis=0), 1e-300)
             w = u[:, None] / np.maximum(np.abs(y), floor) ** 2
