@@ -96,8 +96,21 @@ WARD_ANISOTROPIC = _normalised(
         "ward_anisotropic",
         ward_anisotropic_lobe,
         (
-            roughness("alpha_x", 0.1, "rms slope along T"),
-            roughness("alpha_y", 0.3, "rms slope along B"),
+            roughness(
+                "alpha_x",
+                0.1,
+                "Ward 1992 width along the tangent T: the slope Gaussian "
+                "exp(-(s_T/alpha_x)^2), sqrt(2) x the rms slope along T (a Beckmann "
+                "alpha_u). Renderers: Mitsuba 3 alpha_u with distribution 'beckmann'; "
+                "glTF/Disney/OpenPBR/pbrt-v4 use GGX: no exact mapping",
+            ),
+            roughness(
+                "alpha_y",
+                0.3,
+                "Ward 1992 width along the bitangent B: sqrt(2) x the "
+                "rms slope along B (a Beckmann alpha_v). Renderers: Mitsuba 3 alpha_v "
+                "with distribution 'beckmann'; GGX renderers: no exact mapping",
+            ),
         ),
         PHYSICAL_ANISO,
         "G. J. Ward, Measuring and modeling anisotropic reflection, SIGGRAPH 1992, "

@@ -372,7 +372,15 @@ OREN_NAYAR = Model(
     params=(
         KD,
         Param(
-            "sigma", 0.0, math.pi / 2, 0.3, unit="rad", doc="rms facet slope angle (0: Lambert)"
+            "sigma",
+            0.0,
+            math.pi / 2,
+            0.3,
+            unit="rad",
+            doc="Oren-Nayar 1994 sigma: standard deviation (radians) "
+            "of the facet slope angle, 0 is Lambert; not a microfacet alpha and not glTF/Disney "
+            "roughness. Renderers: their Oren-Nayar roughness inputs (Blender Diffuse BSDF, "
+            "Mitsuba) are other variants: no exact mapping",
         ),
     ),
     classification=PHYSICAL_COSINE_LIGHT,

@@ -108,9 +108,28 @@ def _ward_design(geometry: Geometry, shape) -> Design:
     return Design((INV_PI, ward_lobe(geometry, shape["alpha"])))
 
 
+#: The renderers' names for a Beckmann-type width (parameter docs, issue 17).
+_BECKMANN_RENDERERS = (
+    "Renderers: Mitsuba 3 roughconductor/roughplastic with distribution 'beckmann' take "
+    "this alpha (same D); glTF, Disney/Blender Principled, OpenPBR and pbrt-v4 use GGX, "
+    "whose alpha is another width: no exact mapping (fit ggx for them)"
+)
+_BECKMANN_M = (
+    "Beckmann width m of D = exp(-tan^2/m^2) / (pi m^2 cos^4) (Cook-Torrance's m): the rms "
+    "slope magnitude, sqrt(2) x the rms slope along any one direction. " + _BECKMANN_RENDERERS
+)
+
 WARD = Model(
     name="ward",
-    params=(*diffuse_params(), roughness("alpha", doc="rms slope of the Gaussian lobe")),
+    params=(
+        *diffuse_params(),
+        roughness(
+            "alpha",
+            doc="Ward 1992 width alpha of exp(-tan^2(theta_h)/alpha^2): the slope "
+            "Gaussian of a Beckmann alpha (rms slope magnitude alpha, sqrt(2) x the "
+            "rms slope along one direction). " + _BECKMANN_RENDERERS,
+        ),
+    ),
     classification=WARD_CLASS,
     reference="G. J. Ward, Measuring and modeling anisotropic reflection, SIGGRAPH 1992 "
     "(Computer Graphics 26(2), 265-272)",
@@ -164,7 +183,13 @@ TORRANCE_SPARROW = Model(
         # D is unnormalised: its integral (about pi m^2 for small m) goes into ks,
         # so ks reaches 1/(pi m^2) = 3e5 for an albedo of 1 at m = 0.001.
         *diffuse_params(ks_upper=1e7, ks_unit="1/sr"),
-        roughness("m", doc="width (radians) of the Gaussian in theta_h"),
+        roughness(
+            "m",
+            doc="Torrance-Sparrow width m (radians) of exp(-(theta_h/m)^2): an angle, "
+            "not a slope; near a Beckmann alpha for small m (tan theta_h ~ theta_h). "
+            "Renderers: no renderer parameter is this width; the nearest is a Beckmann "
+            "alpha (Mitsuba 3 distribution 'beckmann'); fit beckmann or ggx for them",
+        ),
         eta_param(),
     ),
     classification=PHYSICAL_ANGLE,
@@ -223,7 +248,7 @@ a white conductor has ks near 1 (MODELS.md). ``operand = cosine``:
 
 COOK_TORRANCE = Model(
     name="cook_torrance",
-    params=(*diffuse_params(), roughness("m", doc="Beckmann rms slope"), eta_param()),
+    params=(*diffuse_params(), roughness("m", doc=_BECKMANN_M), eta_param()),
     classification=PHYSICAL_COSINE,
     reference=_COOK_TORRANCE_REFERENCE,
     design=_cook_torrance_design,
@@ -233,7 +258,7 @@ COOK_TORRANCE = Model(
 
 COOK_TORRANCE_SCHLICK = Model(
     name="cook_torrance_schlick",
-    params=(*diffuse_params(), roughness("m", doc="Beckmann rms slope"), f0_param()),
+    params=(*diffuse_params(), roughness("m", doc=_BECKMANN_M), f0_param()),
     classification=PHYSICAL_COSINE,
     reference=_COOK_TORRANCE_REFERENCE + "; C. Schlick, An inexpensive BRDF model for "
     "physically-based rendering, Computer Graphics Forum 13(3), 1994",

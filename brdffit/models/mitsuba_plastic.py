@@ -166,7 +166,12 @@ MITSUBA_ROUGHPLASTIC = Model(
             unit="1",
             doc="Mitsuba specular_reflectance (a scale of the coating's lobe)",
         ),
-        roughness("alpha", doc="Mitsuba alpha (GGX, not squared)"),
+        roughness(
+            "alpha",
+            doc="Mitsuba 3 alpha: the GGX width alpha, not squared, not an rms "
+            "slope. Renderers: glTF/Disney/Blender/OpenPBR roughness = sqrt(alpha); "
+            "pbrt-v4 roughness = alpha (remaproughness false) or alpha^2 (true)",
+        ),
         Param("eta", 1.05, 3.0, 1.5, unit="1", doc="int_ior / ext_ior of the coating"),
     ),
     classification=Classification("physical", "isotropic", "cosine", "material"),

@@ -72,7 +72,11 @@ def _params() -> tuple:
         Param("base_color", 0.0, 1.0, 0.5, linear=True, unit="1", doc="base_color"),
         Param("metallic", 0.0, 1.0, 0.0, unit="1", doc="metallic"),
         Param("roughness", 0.04, 1.0, 0.5, log_scale=True, unit="1",
-              doc="roughness (alpha = roughness^2)"),
+              doc="Mitsuba 3 principled roughness (Disney's): GGX alpha = roughness^2. Renderers: "
+                  "the same value is glTF roughnessFactor, Blender Principled Roughness and "
+                  "OpenPBR specular_roughness; Mitsuba roughconductor alpha = roughness^2; "
+                  "pbrt-v4 roughness = roughness^4 (remaproughness true) or roughness^2 "
+                  "(false)"),
         Param("specular", 0.0, 1.0, 0.5, unit="1",
               doc="specular: eta = 2 / (1 - sqrt(0.08 specular)) - 1"),
     )  # fmt: skip

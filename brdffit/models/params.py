@@ -46,8 +46,18 @@ def exponent(name: str = "n", upper: float = 1e4, default: float = 50.0, doc: st
 
 
 def roughness(name: str, default: float = 0.1, doc: str = "") -> Param:
-    """A roughness in [0.001, 1], searched in log space."""
-    return Param(name, 1e-3, 1.0, default, log_scale=True, unit="1", doc=doc or "roughness")
+    """A microfacet width in [0.001, 1], searched in log space.
+
+    "Roughness" means different numbers in different places (GGX or Beckmann
+    alpha, glTF/Disney roughness = sqrt(GGX alpha), pbrt-v4's remapped
+    roughness), so ``doc`` is required: it must say which width this is (the
+    distribution, e.g. "GGX width alpha"; never "rms slope" for GGX, whose
+    slopes have no finite variance; Beckmann's alpha is sqrt(2) x the rms slope
+    along one direction) and how it maps to the renderers' parameters.
+    """
+    if not doc:
+        raise ValueError(f"roughness({name!r}) needs a doc saying which width it is")
+    return Param(name, 1e-3, 1.0, default, log_scale=True, unit="1", doc=doc)
 
 
 def radius(name: str, default: float, doc: str) -> Param:

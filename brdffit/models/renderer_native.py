@@ -107,13 +107,25 @@ def _gltf_design(geometry: Geometry, metallic: float, spec: np.ndarray) -> Desig
     return Design((column,), offset)
 
 
+#: What Mitsuba's alpha is, and the other renderers' names for it (issue 17).
+_MITSUBA_ALPHA = (
+    "Mitsuba 3 alpha: the GGX width alpha, not squared, not an rms slope (GGX slopes have no "
+    "finite variance). Renderers: glTF roughnessFactor, Disney/Blender Principled Roughness "
+    "and OpenPBR specular_roughness = sqrt(alpha); pbrt-v4 roughness = alpha with "
+    "remaproughness false, alpha^2 with true (its default)"
+)
+
+
 def _gltf_params() -> tuple:
     return (
         Param("base_color", 0.0, 1.0, 0.5, linear=True, unit="1", doc="baseColorFactor"),
         Param("metallic", 0.0, 1.0, 0.0, unit="1", doc="metallicFactor"),
         Param(
             "roughness", 0.03, 1.0, 0.5, log_scale=True, unit="1",
-            doc="roughnessFactor (perceptual: alpha = roughness^2)",
+            doc="glTF roughnessFactor (perceptual): GGX alpha = roughness^2. Renderers: the same "
+            "value is Disney/Blender Principled Roughness and OpenPBR specular_roughness; "
+            "Mitsuba 3 alpha = roughness^2; pbrt-v4 roughness = roughness^4 with "
+            "remaproughness true (its default), roughness^2 with false",
         ),
     )  # fmt: skip
 
@@ -204,7 +216,7 @@ _MITSUBA_DOC = (
 
 MITSUBA_ROUGHCONDUCTOR = Model(
     name="mitsuba_roughconductor",
-    params=_conductor_params(roughness("alpha", doc="Mitsuba alpha (GGX, not squared)")),
+    params=_conductor_params(roughness("alpha", doc=_MITSUBA_ALPHA)),
     classification=ISOTROPIC,
     reference=_MITSUBA_REFERENCE,
     design=_conductor_iso_design,
@@ -215,8 +227,21 @@ MITSUBA_ROUGHCONDUCTOR = Model(
 MITSUBA_ROUGHCONDUCTOR_ANISOTROPIC = Model(
     name="mitsuba_roughconductor_anisotropic",
     params=_conductor_params(
-        roughness("alpha_u", doc="Mitsuba alpha_u, along the tangent T = x"),
-        roughness("alpha_v", 0.3, doc="Mitsuba alpha_v, along the bitangent"),
+        roughness(
+            "alpha_u",
+            doc="Mitsuba 3 alpha_u: GGX width along the tangent T = x, not "
+            "squared, not an rms slope. Renderers: pbrt-v4 uroughness = alpha_u "
+            "(remaproughness false) or alpha_u^2 (true); Disney/Blender Principled: "
+            "roughness^2 = sqrt(alpha_u alpha_v)",
+        ),
+        roughness(
+            "alpha_v",
+            0.3,
+            doc="Mitsuba 3 alpha_v: GGX width along the bitangent, not "
+            "squared, not an rms slope. Renderers: pbrt-v4 vroughness = alpha_v "
+            "(remaproughness false) or alpha_v^2 (true); Disney/Blender Principled: "
+            "roughness^2 = sqrt(alpha_u alpha_v)",
+        ),
     ),
     classification=ANISOTROPIC,
     reference=_MITSUBA_REFERENCE,

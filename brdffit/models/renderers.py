@@ -142,6 +142,36 @@ _FORMULAS = {
     "beckmann": (_BECKMANN_FORMULA, _BECKMANN_REFERENCE),
 }
 
+#: What each width parameter is, and the renderers' names for it (issue 17).
+_GGX_RENDERERS = (
+    "Renderers: Mitsuba 3 alpha = alpha; glTF roughnessFactor, Disney/Blender Principled "
+    "Roughness and OpenPBR specular_roughness = sqrt(alpha); pbrt-v4 roughness = alpha "
+    "with remaproughness false, alpha^2 with true (its default)"
+)
+_BECKMANN_RENDERERS = (
+    "Renderers: Mitsuba 3 roughconductor/roughplastic with distribution 'beckmann' take "
+    "this alpha; glTF, Disney/Blender Principled, OpenPBR and pbrt-v4 use GGX, whose alpha "
+    "is another width (no exact mapping: fit ggx for them)"
+)
+_ALPHA_DOC = {
+    "ggx": "GGX (Trowbridge-Reitz) width alpha of D (Walter et al. 2007, eq. 33); not an "
+    "rms slope: GGX slopes have no finite variance. " + _GGX_RENDERERS,
+    "beckmann": "Beckmann width alpha of D = exp(-tan^2/alpha^2) / (pi alpha^2 cos^4): the "
+    "rms slope magnitude, sqrt(2) x the rms slope along any one direction. " + _BECKMANN_RENDERERS,
+    "ggx_u": "GGX width alpha_u along the tangent T (Heitz 2014, section 5.4); not an rms "
+    "slope. Renderers: Mitsuba 3 alpha_u; pbrt-v4 uroughness = alpha_u (remaproughness "
+    "false) or alpha_u^2 (true); Disney/Blender Principled: roughness^2 = sqrt(alpha_u "
+    "alpha_v), anisotropic sets the ratio; glTF KHR_materials_anisotropy: alpha_v = "
+    "roughness^2, alpha_u = alpha_v + (1 - alpha_v) anisotropyStrength^2",
+    "ggx_v": "GGX width alpha_v along the bitangent B; not an rms slope. Renderers: "
+    "Mitsuba 3 alpha_v; pbrt-v4 vroughness = alpha_v (remaproughness false) or alpha_v^2 "
+    "(true); glTF: alpha_v = roughness^2 of roughnessFactor (see alpha_u)",
+    "beckmann_u": "Beckmann width along the tangent T: sqrt(2) x the rms slope along T. "
+    + _BECKMANN_RENDERERS.replace("this alpha", "it as alpha_u"),
+    "beckmann_v": "Beckmann width along the bitangent B: sqrt(2) x the rms slope along B. "
+    + _BECKMANN_RENDERERS.replace("this alpha", "it as alpha_v"),
+}
+
 _ANISOTROPIC_NOTE = """
 Anisotropic: in D, ``tan^2/alpha^2`` becomes ``tan^2 (cos^2 phi_h/alpha_u^2 +
 sin^2 phi_h/alpha_v^2)`` and ``alpha^2`` in the normalisation ``alpha_u alpha_v``;
@@ -168,7 +198,7 @@ def _isotropic_model(distribution: str) -> Model:
 
     return Model(
         name=distribution,
-        params=(*diffuse_params(), roughness("alpha", doc="roughness (rms slope)"), f0_param()),
+        params=(*diffuse_params(), roughness("alpha", doc=_ALPHA_DOC[distribution]), f0_param()),
         classification=ISOTROPIC,
         reference=reference,
         design=design,
@@ -190,8 +220,8 @@ def _anisotropic_model(distribution: str) -> Model:
         name=f"{distribution}_anisotropic",
         params=(
             *diffuse_params(),
-            roughness("alpha_u", doc="roughness along the tangent T"),
-            roughness("alpha_v", 0.3, doc="roughness along the bitangent B"),
+            roughness("alpha_u", doc=_ALPHA_DOC[distribution + "_u"]),
+            roughness("alpha_v", 0.3, doc=_ALPHA_DOC[distribution + "_v"]),
             f0_param(),
         ),
         classification=ANISOTROPIC,

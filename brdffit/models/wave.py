@@ -159,7 +159,10 @@ HE = Model(
             0.18,
             log_scale=True,
             unit="um",
-            doc="rms height of the surface (fitted)",
+            doc="He et al. 1991 sigma0: rms height (um) of the surface, a height, not a slope; "
+            "with a Gaussian correlation the rms slope magnitude is 2 sigma0 / tau, the "
+            "Beckmann alpha of the geometric-optics limit (Beckmann-Spizzichino 1963); "
+            "renderers: no roughness parameter is a height (fitted)",
         ),
         Param(
             "tau",
@@ -168,7 +171,9 @@ HE = Model(
             3.0,
             log_scale=True,
             unit="um",
-            doc="autocorrelation length of the heights (fitted)",
+            doc="He et al. 1991 tau: autocorrelation length (um) of the heights, Gaussian "
+            "correlation exp(-r^2/tau^2); with sigma0 it sets the slope; renderers: no "
+            "parameter is a length (fitted)",
         ),
         Param(
             "eta",
