@@ -94,3 +94,33 @@ TRANSMISSION = b"MBSDF_DATA_TRANSMISSION=\n"
 def pack_block(kind, n_theta, n_phi, values):
     """An MBSDF data block: uint32 type and resolutions, then float32 values."""
     return struct.pack("<3I", kind, n_theta, n_phi) + struct.pack(f"<{len(values)}f", *values)
+
+
+# ------------------------------------------------------- one small file per format
+def small_files() -> dict:
+    """``{format: (file name, bytes)}``: a small valid file of every readable format.
+
+    Text and NPZ files come from brdffit's writers (``rgb_data``), pbrt from
+    :func:`pbrt_text`, MBSDF and RGL are packed here, MERL is written by
+    ``write_merl`` (a full 35 MB table, mostly cells without a measurement).
+    """
+    import io
+
+    from brdffit.io import write
+
+    data = rgb_data(n=12)
+    files = {}
+    for name in ("csv", "astm", "npz"):
+        buffer = io.BytesIO()
+        write(buffer, data, format=name)
+        files[name] = (f"small.{name}", buffer.getvalue())
+    files["pbrt"] = ("small.brdf", pbrt_text().encode())
+    values = np.linspace(0.1, 1.0, 3 * 2 * 2 * 3)
+    files["mbsdf"] = ("small.mbsdf", MAGIC + REFLECTION + pack_block(1, 2, 3, values))
+    files["rgl"] = ("small.bsdf", pack_tensor(tiny_rgl()))
+    positive = Measurements(data.wi, data.wo, np.abs(data.values), data.channels)
+    positive = positive.subset(np.flatnonzero((data.wi[:, 2] > 0) & (data.wo[:, 2] > 0)))
+    buffer = io.BytesIO()
+    write(buffer, positive, format="merl")
+    files["merl"] = ("small.binary", buffer.getvalue())
+    return files

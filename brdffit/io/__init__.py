@@ -240,7 +240,7 @@ def read(source, format: str | None = None, *, max_samples=DEFAULT_MAX_SAMPLES,
         raise named from exc
     except Exception as exc:  # every unforeseen fault is the file's (MemoryError too)
         raise _unexpected(exc, source.name, name) from exc
-    check_samples(data.n, limit, source.name, "its content")
+    check_samples(data.n, limit, source.name, "counted in what was read")
     return data
 
 

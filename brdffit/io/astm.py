@@ -62,7 +62,7 @@ def parse_astm(text: str, where: str = "<astm text>", angle_unit: str = "radians
             "'VARS theta_i,phi_i,theta_s,phi_s,...' before the data",
             "VARS",
         )
-    check_samples(len(rows), max_samples, where, "its rows")
+    check_samples(len(rows), max_samples, where, "counted in its rows")
     _check_count(header, key_lines, len(rows), where)
     names = [_ASTM_ANGLES.get(v.strip(), v.strip()) for v in header["VARS"].split(",")]
     source = header.get("SAMPLE_NAME") or os.path.basename(str(where))

@@ -133,7 +133,7 @@ def parse_csv(text: str, where: str = "<csv text>", angle_unit: str | None = Non
     """
     angle_unit = angle_unit_option(angle_unit)
     meta, (names, header_line, sep), rows, lines = _header(text.splitlines(), where)
-    check_samples(len(rows), max_samples, where, "its rows")
+    check_samples(len(rows), max_samples, where, "counted in its rows")
     rows = _decimal_commas(rows, lines, sep, where)
     source = meta.get("source", (os.path.basename(str(where)), 0))[0]
     file_unit, units = _file_unit(meta, where)

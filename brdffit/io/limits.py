@@ -42,12 +42,13 @@ def checked_limit(max_samples) -> int | None:
 def check_samples(n: int, max_samples: int | None, where: str, what: str, hint: str = "") -> None:
     """FormatError (field ``source``) when ``n`` samples exceed ``max_samples``.
 
-    ``where`` names the file, ``what`` says where the count comes from (``"its
-    header"``, ``"its rows"``), ``hint`` what the user may do instead.
+    ``where`` names the file, ``what`` says where the count comes from (``"by
+    its header at byte 40"``, ``"counted in its rows"``), ``hint`` what the user
+    may do instead.
     """
     if max_samples is not None and n > max_samples:
         raise FormatError(
-            f"{where}: {what} gives {n:,} samples, more than the limit of {max_samples:,} "
-            f"(read's max_samples){hint}",
+            f"{where} holds {n:,} samples ({what}), more than the sample limit of "
+            f"{max_samples:,} (max_samples){hint}",
             "source",
         )

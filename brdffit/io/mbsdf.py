@@ -184,7 +184,7 @@ def read_mbsdf_arrays(source, max_samples: int | None = DEFAULT_MAX_SAMPLES) -> 
     path, raw = source.name, source.read()
     pos, metadata = _find_reflection(raw, path)
     kind, n_theta, n_phi, end = _block_header(raw, pos, path, "reflection")
-    check_samples(n_theta * n_theta * n_phi, max_samples, path, f"the header at byte {pos}")
+    check_samples(n_theta * n_theta * n_phi, max_samples, path, f"by its header at byte {pos}")
     has_transmission = _check_tail(raw, end, path)
     channels = TYPES[kind]
     count = n_theta * n_theta * n_phi * len(channels)

@@ -255,7 +255,7 @@ def read_merl_arrays(source, subsample: int | None = None,
             "below the horizon",
             "source",
         )
-    check_samples(kept, max_samples, source.name, f"its {kept:,} measured cells",
+    check_samples(kept, max_samples, source.name, "its measured cells",
                   "; read it with a larger subsample")  # fmt: skip
     wi, wo = _directions_of(keep, step)
     values = np.empty((wi.shape[0], 3))

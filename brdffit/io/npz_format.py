@@ -54,7 +54,8 @@ def write_npz(target, data: Measurements) -> None:
 
 
 def _header(archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: str) -> tuple:
-    """Shape and dtype of an ``.npy`` member, from its first bytes alone."""
+    """Shape and dtype of an ``.npy`` member, from its first bytes alone, checked
+    against the member's size in the zip directory (which bounds what it inflates to)."""
     with archive.open(info) as member:
         version = np.lib.format.read_magic(member)
         if version == (1, 0):
@@ -64,7 +65,17 @@ def _header(archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: str) -> tuple
         else:
             raise FormatError(f"{path}: member {info.filename} is .npy version {version}",
                               "source")  # fmt: skip
-    return tuple(int(x) for x in shape), np.dtype(dtype)
+        header_bytes = member.tell()
+    shape, dtype = tuple(int(x) for x in shape), np.dtype(dtype)
+    claimed = math.prod(shape) * dtype.itemsize
+    if header_bytes + claimed != info.file_size:
+        raise FormatError(
+            f"{path}: the array {info.filename[:-4]!r} claims shape {list(shape)} of {dtype} "
+            f"({claimed:,} bytes) but its member holds {info.file_size - header_bytes:,} bytes "
+            "of data; the archive is damaged or forged",
+            "source",
+        )
+    return shape, dtype
 
 
 def _check_member(key: str, shape: tuple, dtype: np.dtype, path: str, limit) -> int:
@@ -79,8 +90,8 @@ def _check_member(key: str, shape: tuple, dtype: np.dtype, path: str, limit) -> 
         )
     if key in ("format_version", "angles_in_degrees", "source", "units") and shape:
         raise FormatError(f"{path}: {key!r} has shape {list(shape)}; it is one value", key)
-    if shape:
-        check_samples(shape[0], limit, path, f"the header of its array {key!r}")
+    if shape and key != "channels":
+        check_samples(shape[0], limit, path, f"by the header of its array {key!r}")
     return math.prod(shape) * max(1, dtype.itemsize // 8)
 
 
@@ -103,7 +114,7 @@ def _load(raw: bytes, path: str, limit) -> dict:
             raise FormatError(
                 f"{path}: its arrays hold {total:,} numbers, more than the "
                 f"{ELEMENTS_PER_SAMPLE} per sample of the sample limit {limit:,} allow "
-                "(read's max_samples)",
+                "(max_samples)",
                 "source",
             )
         contents = {}

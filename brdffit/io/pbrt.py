@@ -87,7 +87,7 @@ def parse_pbrt(text: str, where: str = "<pbrt text>", angle_unit: str = "radians
             f"not a whole number of records of 4 + {w} = {size} (a truncated file?)",
             "data",
         )
-    check_samples(rest.size // size, max_samples, where, "its count of numbers")
+    check_samples(rest.size // size, max_samples, where, "counted in its records")
     records = rest.reshape(-1, size)
     record_lines = lines[1 + w :: size]
     channels = [f"{x:g}nm" for x in wavelengths]

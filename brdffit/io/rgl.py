@@ -333,7 +333,7 @@ def read_rgl_arrays(source, max_samples: int | None = DEFAULT_MAX_SAMPLES) -> Rg
     f = _check_layout(fields, path)
     parts, n_incident, n_merged = [], 0, 0
     n_theta, (ny, nx) = f["theta_i"].shape[0], f["rgb"].shape[3:]
-    check_samples(n_theta * ny * nx, max_samples, path, f"the rgb field (byte {f['rgb'].offset})")
+    check_samples(n_theta * ny * nx, max_samples, path, "by the shape of its field 'rgb'")
     for k in range(n_theta):
         theta_i = float(f["theta_i"].data[k])
         if not math.cos(theta_i) > HORIZON_COS:
