@@ -124,7 +124,7 @@ def test_a_header_claiming_1e11_samples_in_a_small_file_is_a_format_error():
     forged = npz_claiming(10**11, data_bytes=24_000)
     assert len(forged) < 30_000
     for limit in (DEFAULT_MAX_SAMPLES, None):
-        raised, peak = peak_of(lambda: brdffit.read(named(forged, "f.npz"), max_samples=limit))
+        raised, peak = peak_of(lambda m=limit: brdffit.read(named(forged, "f.npz"), max_samples=m))
         assert isinstance(raised, FormatError), repr(raised)
         assert str(raised).startswith(
             "f.npz: the array 'wi' claims shape [100000000000, 3] of float64 "
