@@ -12,6 +12,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 __all__ = [
     "FitResultOut",
+    "MisfitOut",
+    "NoiseOut",
     "MaybeFloat",
     "OptionsOut",
     "PerChannelOut",
@@ -109,6 +111,37 @@ class OptionsOut(BaseModel):
     weights: WeightsOut | None = Field(description="A summary of the weights; null: none.")
 
 
+class NoiseOut(BaseModel):
+    """``FitResult.noise``: the noise model the fit assumed or estimated."""
+
+    model_config = ANSWER
+
+    model: str = Field(
+        description='"mixed" (sigma^2 = a^2 + (b f)^2, estimated with the fit), "given" '
+        "(the data's sigma) or \"loss\" (constant on the loss's transformed values)."
+    )
+    a: MaybeFloat = Field(None, description="mixed: the absolute noise floor a.")
+    b: MaybeFloat = Field(None, description="mixed: the relative noise b (a fraction of f).")
+    meaning: str = Field(description="What the noise model means, in words.")
+
+
+class MisfitOut(BaseModel):
+    """``FitResult.misfit``: whether the residuals say the model does not describe the data."""
+
+    model_config = ANSWER
+
+    detected: bool = Field(description="A misfit was found (serial correlation or chi2).")
+    serial_correlation: MaybeFloat = Field(
+        description="The largest lag-1 autocorrelation of the standardised residuals."
+    )
+    serial_z: MaybeFloat = Field(description="That correlation times sqrt(samples).")
+    threshold_z: MaybeFloat = Field(description="The z above which it is a misfit.")
+    ordered_by: str = Field(description="The angle the residuals were ordered along.")
+    reduced_chi2: MaybeFloat = Field(description="Sum of squared residuals per degree of freedom.")
+    chi2_tested: bool = Field(description="The reduced chi-square was tested (known sigma).")
+    message: str = Field(description="The verdict, in words.")
+
+
 class FitResultOut(BaseModel):
     """``FitResult.to_dict()``, and in answers to ``POST /fit`` the data's notes."""
 
@@ -143,6 +176,10 @@ class FitResultOut(BaseModel):
     at_bounds: list[str] = Field(
         description="Free parameters that ended at a bound: shape ones, and linear ones "
         "(kd, ks...) at a bound in any channel."
+    )
+    noise: NoiseOut | None = Field(None, description="The noise model of the fit.")
+    misfit: MisfitOut | None = Field(
+        None, description="The test of the residuals for a model that does not fit."
     )
     unidentified: dict[str, str] = Field(
         default_factory=dict,
