@@ -125,11 +125,12 @@ def _load(raw: bytes, path: str, limit) -> dict:
 
 
 def _version(value, path: str) -> int:
-    version = int(value) if np.ndim(value) == 0 else -1
-    if version < 0:
+    value = np.asarray(value).item()
+    if isinstance(value, bool) or not math.isfinite(value) or value != int(value) or value < 0:
         raise FormatError(
             f"{path}: format_version {value!r} is not a whole number >= 0", "format_version"
         )
+    version = int(value)
     if version > FORMAT_VERSION:
         raise FormatError(
             f"{path} has format_version {version}; this brdffit reads up to {FORMAT_VERSION}",
