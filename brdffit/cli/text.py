@@ -11,6 +11,7 @@ import time
 import numpy as np
 
 from ..jsonable import dumps
+from ..words import plural
 
 __all__ = [
     "Progress",
@@ -39,15 +40,16 @@ class Progress:
         self.last = now
         if hasattr(p, "n_evals"):
             text = (
-                f"{self.label}: {p.stage:<10} {p.n_evals:>6} evaluations, best loss "
-                f"{p.best_loss:.4g}, {p.seconds:.1f} s"
+                f"{self.label}: {p.stage:<10} {plural(f'{p.n_evals:>6}', 'evaluation')}, "
+                f"best loss {p.best_loss:.4g}, {p.seconds:.1f} s"
             )
         else:
             budget = max(p.steps / p.max_steps, p.seconds / (self.max_seconds or math.inf))
             bar = "#" * round(20 * min(budget, 1.0))
             text = (
-                f"sampling [{bar:<20}] {p.steps} steps, autocorrelation {p.autocorr_time:.1f}"
-                f", {p.effective_samples} effective samples, {p.seconds:.1f} s"
+                f"sampling [{bar:<20}] {plural(p.steps, 'step')}, autocorrelation "
+                f"{p.autocorr_time:.1f}, {plural(p.effective_samples, 'effective sample')}, "
+                f"{p.seconds:.1f} s"
             )
         self.line(text)
 
@@ -129,14 +131,14 @@ def fit_text(data, result, label: str) -> str:
         kind += " of a posterior that DID NOT CONVERGE: not reliable"
     m = result.metrics
     lines = [
-        f"{result.model} fitted to {label}: {data.n} samples, "
+        f"{result.model} fitted to {label}: {plural(data.n, 'sample')}, "
         f"channels {', '.join(channels)}, sigma {'given' if data.sigma is not None else 'none'}",
         "",
         table(head, rows),
         "",
         f"values: {kind}",
         f"{result.loss_name} loss {result.loss:.6g}, rmse {m['rmse']:.6g}, BIC {m['bic']:.6g}; "
-        f"{result.n_evals} evaluations in {result.seconds:.2f} s",
+        f"{plural(result.n_evals, 'evaluation')} in {result.seconds:.2f} s",
         f"fit: {result.message}",
     ]
     if result.unidentified:

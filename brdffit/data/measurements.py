@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..notes import note
+from ..words import plural
 from .angle_units import radians_note, radians_suspected
 from .geometry import Geometry, angles_from_directions, check_directions, directions_from_angles
 
@@ -53,7 +54,8 @@ def _as_values(values, n: int | None, field: str) -> np.ndarray:
         raise DataError(f"{field} has shape {a.shape}; it must be (N,) or (N, C)", field)
     if n is not None and a.shape[0] != n:
         raise DataError(
-            f"{field} has {a.shape[0]} samples but there are {n} direction pairs; "
+            f"{field} has {plural(a.shape[0], 'sample')} but there are "
+            f"{plural(n, 'direction pair')}; "
             "they must have the same length",
             field,
         )
@@ -376,7 +378,7 @@ class Measurements:
         n_test = round(test_fraction * self.n)
         if not 1 <= n_test <= self.n - 1:
             raise DataError(
-                f"test_fraction={test_fraction!r} of {self.n} samples leaves an empty "
+                f"test_fraction={test_fraction!r} of {plural(self.n, 'sample')} leaves an empty "
                 "train or test set; more samples or another fraction are needed",
                 "test_fraction",
             )
@@ -457,10 +459,10 @@ class Measurements:
         )
         thetas = ", ".join(f"{t:g}" for t in d["theta_i_deg"][:12])
         return (
-            f"{self.n} samples from {self._source or 'arrays'}; channels: {channels}; "
+            f"{plural(self.n, 'sample')} from {self._source or 'arrays'}; channels: {channels}; "
             f"units {self._units}\n"
             f"values {min(d['min']):.6g} .. {max(d['max']):.6g}; {d['negative_count']} negative; "
-            f"{d['below_horizon_count']} pairs at or below the horizon; "
+            f"{plural(d['below_horizon_count'], 'pair')} at or below the horizon; "
             f"sigma {'given' if d['has_sigma'] else 'not given'}\n"
             f"theta_i (deg): {thetas}{' ...' if len(d['theta_i_deg']) > 12 else ''}"
         )

@@ -33,6 +33,7 @@ import numpy as np
 from ..errors import FitError
 from ..jsonable import jsonable
 from ..models import get_model
+from ..words import plural
 from .core import fit
 from .losses import LossContext, get_loss
 from .noise import NoiseModel
@@ -121,7 +122,7 @@ class Comparison:
                 "ranked after the models without"
             )
         rows.append(
-            f"trained on {self.n_train} samples, held out {self.n_test} "
+            f"trained on {plural(self.n_train, 'sample')}, held out {self.n_test} "
             f"({self.test_fraction:.0%}, seed {self.seed})"
         )
         return "\n".join(rows)

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import FitError, ParameterError
 from ..models import get_model
+from ..words import plural
 from .linear import normal_equations, solve_bounded, weighted_target
 from .losses import LossContext, get_loss
 
@@ -106,8 +107,8 @@ class Problem:
             value = param.check(value)
             if np.ndim(value) == 1 and np.size(value) not in (1, self.n_channels):
                 raise ParameterError(
-                    f"fixed {name} has {np.size(value)} values but the data have "
-                    f"{self.n_channels} channels",
+                    f"fixed {name} has {plural(np.size(value), 'value')} but the data have "
+                    f"{plural(self.n_channels, 'channel')}",
                     name,
                 )
             out[name] = value
@@ -220,8 +221,8 @@ class Problem:
         n_free = len(self.free_coefs) + len(self.free_shape)
         if self.geometry.m <= n_free:
             raise FitError(
-                f"the data have {self.geometry.m} samples above the horizon but "
-                f"{self.model.name} has {n_free} free parameters per channel; "
+                f"the data have {plural(self.geometry.m, 'sample')} above the horizon but "
+                f"{self.model.name} has {plural(n_free, 'free parameter')} per channel; "
                 "it needs more samples than parameters",
                 "data",
             )

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..jsonable import jsonable
+from ..words import plural
 from .losses import LOSSES, LossContext
 
 __all__ = ["FitResult", "metrics_of"]
@@ -142,7 +143,8 @@ class FitResult:
         ]
         for name, value in self.params.items():
             lines.append(f"  {name} = {_fmt(value)}")
-        lines.append(f"  {self.n_evals} evaluations, {self.seconds:.3g} s; {self.message}")
+        evals = plural(self.n_evals, "evaluation")
+        lines.append(f"  {evals}, {self.seconds:.3g} s; {self.message}")
         if self.noise is not None and self.noise.get("model") == "mixed":
             lines.append(
                 f"  noise model: sigma^2 = a^2 + (b f)^2, a = {self.noise['a']:.3g}, "

@@ -53,12 +53,21 @@ def get_model(name) -> Model:
     try:
         return REGISTRY[name]
     except KeyError:
-        close = difflib.get_close_matches(name, REGISTRY, n=3, cutoff=0.5)
-        hint = f" (did you mean {', '.join(close)}?)" if close else ""
+        hint = _suggestion(name)
         raise ModelError(
             f"unknown model {name!r}{hint}; known models: {', '.join(sorted(REGISTRY))}",
             "model",
         ) from None
+
+
+def _suggestion(name: str) -> str:
+    """`` (did you mean ggx?)`` for ``GGX``: names equal but for case first, then
+    close matches compared in lower case (difflib's ratio, as before)."""
+    lower = {key.lower(): key for key in REGISTRY}
+    same = [lower[name.lower()]] if name.lower() in lower else []
+    close = difflib.get_close_matches(name.lower(), list(lower), n=3, cutoff=0.5)
+    names = list(dict.fromkeys(same + [lower[c] for c in close]))[:3]
+    return f" (did you mean {', '.join(names)}?)" if names else ""
 
 
 def list_models(**filters) -> list[Model]:

@@ -29,7 +29,8 @@ from matplotlib.figure import Figure
 
 from ..data.geometry import directions_from_angles
 from ..models import get_model
-from .residuals import SIGMA_LABEL, Residuals, log_hidden, plural, residuals
+from ..words import plural
+from .residuals import SIGMA_LABEL, Residuals, log_hidden, residuals
 
 __all__ = ["PlaneSlice", "fit_figure", "plane_of_incidence", "plot_fit", "slice_note"]
 

@@ -18,17 +18,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Residuals", "log_hidden", "plural", "residuals", "robust_limits"]
+from ..words import plural
+
+__all__ = ["Residuals", "log_hidden", "residuals", "robust_limits"]
 
 #: Tukey's "far out" fence: this many interquartile ranges beyond the quartiles.
 FENCE = 3.0
 SIGMA_LABEL = "(measured − fitted) / σ"
 RELATIVE_LABEL = "(measured − fitted) / fitted"
-
-
-def plural(n: int, word: str, many: str | None = None) -> str:
-    """``"1 sample"``, ``"2 samples"``."""
-    return f"{n} {word if n == 1 else (many or word + 's')}"
 
 
 @dataclass(frozen=True)

@@ -46,6 +46,7 @@ from ..errors import FitError
 from ..fitting.noise import NoiseModel
 from ..fitting.problem import Problem
 from ..fitting.result import FitResult
+from ..words import plural
 from .chain import (
     TOL,
     PosteriorProgress,
@@ -386,8 +387,9 @@ def _posterior(
     ess = int(info.effective.min() * kept_fraction) if len(info.effective) else 0
     length = f"{n_post / tau_max:.0f}" if math.isfinite(tau_max) and n_post > 0 else "no"
     facts = (
-        f"{info.steps} steps, burn-in {info.burn}, {length} autocorrelation times after "
-        f"burn-in, {ess} effective samples"
+        f"{plural(info.steps, 'step')}, burn-in {info.burn}, "
+        f"{plural(length, 'autocorrelation time')} after burn-in, "
+        f"{plural(ess, 'effective sample')}"
     )
     if info.converged:
         message = f"converged: {facts}"
