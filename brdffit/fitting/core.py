@@ -31,7 +31,7 @@ from ..errors import DataError, FitError
 from ..models import get_model
 from .engine import CONVERGED, FitProgress, StopFit, reason, search
 from .losses import LossContext
-from .misfit import assess
+from .misfit import assess, refit_on_misfit
 from .noise import reweight
 from .options import DEFAULT_GLOBAL, DEFAULT_LOCAL, FitOptions
 from .problem import BAD_LOSS, Problem
@@ -84,6 +84,7 @@ def fit(data, model, **options) -> FitResult:
     problem, found, code, noise = reweight(problem, found, code, opts, t0)
     result = _result(problem, found, code, opts, perf_counter() - t0)
     result = replace(result, **assess(problem, result, noise))
+    result = refit_on_misfit(fit, data, model, options, result)
     if opts.uncertainty:
         from ..posterior.sample import sample_posterior
 
