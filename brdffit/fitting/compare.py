@@ -171,6 +171,10 @@ def compare(
     if not isinstance(test_fraction, (int, float)) or not 0 < test_fraction <= 0.9:
         raise FitError(f"test_fraction={test_fraction!r} must be in (0, 0.9]", "test_fraction")
     train, test = data.split(test_fraction, seed=seed)
+    if fit_options.get("loss") is None and data.sigma is None:
+        # One likelihood for every model: the noise model of each, never the refit
+        # that a lone default fit makes on misfit (a misfit is what ranks it lower).
+        fit_options = {**fit_options, "loss": "mixed"}
     fits = [fit(train, m, seed=seed, **fit_options) for m in models]
     loss = get_loss(fits[0].loss_name)
     ctx = LossContext(
