@@ -85,6 +85,12 @@ def _field_header(raw: bytes, pos: int, index: int, path) -> tuple:
             "source",
         )
     shape = _unpack(raw, f"<{ndim}Q", pos + 11, f"shape of field {name!r}", path)
+    if max(shape, default=0) > len(raw):  # impossible data, even beside a size of 0
+        raise FormatError(
+            f"{path}: field {name!r} has the shape {list(shape)} (header at byte {pos + 11}), "
+            f"a size beyond the file's {len(raw)} bytes",
+            "source",
+        )
     return name, code, offset, shape, pos + 11 + 8 * ndim
 
 

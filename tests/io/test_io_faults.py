@@ -136,3 +136,12 @@ def test_a_library_error_without_the_file_name_gets_it_keeping_its_class_and_fie
 def test_a_missing_file_is_still_the_operating_systems_error(tmp_path):
     with pytest.raises(FileNotFoundError):
         brdffit.read(tmp_path / "absent.csv")
+
+
+def test_an_rgl_field_with_a_zero_and_a_huge_size_is_refused():
+    """No data to read, yet numpy cannot make the shape (found by test_io_fuzz, seed 161)."""
+    header = b"tensor_file\x00" + struct.pack("<BBI", 1, 0, 1)
+    field = struct.pack("<H", 3) + b"rgb" + struct.pack("<HBQ2Q", 2, 10, 48, 0, 2**63 - 1)
+    raw = header + field
+    with pytest.raises(FormatError, match=r"^z.bsdf: field 'rgb' has the shape \[0, 922"):
+        brdffit.read(named(raw, "z.bsdf"))
