@@ -48,7 +48,7 @@ class PosteriorOut(BaseModel):
 
     model: str = Field(description="The fitted model's name.")
     loss: str = Field(description="The loss on whose residuals the likelihood is Gaussian.")
-    noise: str = Field(description='The noise model: "given", "absolute" or "relative".')
+    noise: str = Field(description='The noise model: "given", "absolute", "relative" or "mixed".')
     noise_meaning: str = Field(description="What the noise model means, in words.")
     names: list[str] = Field(
         description="Parameter names: the keys of `summary`, the rows and columns of "
@@ -130,15 +130,21 @@ class MisfitOut(BaseModel):
 
     model_config = ANSWER
 
-    detected: bool = Field(description="A misfit was found (serial correlation or chi2).")
-    serial_correlation: MaybeFloat = Field(
-        description="The largest lag-1 autocorrelation of the standardised residuals."
+    detected: bool = Field(description="A misfit was found (runs test or chi2).")
+    runs_ratio: MaybeFloat = Field(
+        description="Runs of residual signs counted over runs expected of noise, in the "
+        "ordering and channel of the largest runs_z (below 1: residuals cluster)."
     )
-    serial_z: MaybeFloat = Field(description="That correlation times sqrt(samples).")
+    runs_z: MaybeFloat = Field(description="The largest runs test z (too few runs).")
     threshold_z: MaybeFloat = Field(description="The z above which it is a misfit.")
     ordered_by: str = Field(description="The angle the residuals were ordered along.")
     reduced_chi2: MaybeFloat = Field(description="Sum of squared residuals per degree of freedom.")
     chi2_tested: bool = Field(description="The reduced chi-square was tested (known sigma).")
+    refit_loss: str | None = Field(
+        None,
+        description="The loss a default fit was refitted with after its noise-model fit "
+        "misfit (log); null: not refitted.",
+    )
     message: str = Field(description="The verdict, in words.")
 
 
