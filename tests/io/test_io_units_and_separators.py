@@ -184,3 +184,28 @@ def test_the_command_line_warns_of_radians_and_takes_angle_unit(tmp_path, capsys
     assert "brdffit: warning: " + str(path) + ": the angles are read as degrees" in err
     assert main(["fit", str(path), "--model", "lambert", "--json", "--angle-unit", "radians"]) == 0
     assert "look like radians" not in capsys.readouterr().err
+
+
+def test_the_http_service_returns_the_note_in_data_notes(tmp_path):
+    """The upload route's answer carries the reader's note; the JSON route's the
+    note of Measurements.from_angles."""
+    pytest.importorskip("fastapi", reason="the service extra is absent")
+    from fastapi.testclient import TestClient
+
+    from brdffit_service import Settings, create_app
+
+    settings = Settings(store_path=tmp_path / "jobs.sqlite3", workers=1, fit_timeout=5.0)
+    text = in_radians(ward_text())
+    with TestClient(create_app(settings)) as client:
+        files = {"file": ("ward_rad.csv", text.encode(), "text/csv")}
+        answer = client.post("/fit/file", files=files, data={"model": "lambert"})
+        assert answer.status_code == 200, answer.text
+        notes = answer.json()["data_notes"]
+        assert any(n.startswith("ward_rad.csv: the angles are read as degrees") for n in notes)
+        data = quiet_read(named(text.encode(), "w.csv"), angle_unit="degrees")
+        body = {"model": "lambert", "data": data.to_dict(include_data=True)}
+        body["data"] = {k: body["data"][k] for k in ("theta_i", "phi_i", "theta_o", "phi_o")}
+        body["data"]["values"] = data.values.tolist()
+        answer = client.post("/fit", json=body)
+        assert answer.status_code == 200, answer.text
+        assert any("look like radians" in n for n in answer.json()["data_notes"])
