@@ -252,3 +252,25 @@ def refit_on_misfit(fit, data, model, options: dict, result):
         n_evals=again.n_evals + result.n_evals,
         seconds=again.seconds + result.seconds,
     )
+
+
+def describe(result) -> list[str]:
+    """Lines for the command line: the noise model of a fit and the misfit verdict."""
+    noise, misfit, lines = result.noise, result.misfit, []
+    if noise:
+        if noise["model"] == "mixed":
+            lines.append(
+                f"noise: sigma^2 = a^2 + (b f)^2 estimated with the fit, a = {noise['a']:.3g}, "
+                f"b = {noise['b']:.3g} (the default without sigma: measured noise grows with "
+                "the signal above a floor)"
+            )
+        else:
+            lines.append(f"noise: {noise['meaning']}")
+    if misfit:
+        lines.append(misfit["message"] if misfit["detected"] else f"misfit: {misfit['message']}")
+        if misfit.get("refit_loss"):
+            lines.append(
+                f"the default refitted with the {misfit['refit_loss']} loss: the model "
+                "cannot describe these data, and the intervals are conditional on it"
+            )
+    return lines
