@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 
+from ..fitting.misfit import describe
 from ..jsonable import dumps
 from ..words import plural
 
@@ -140,6 +141,7 @@ def fit_text(data, result, label: str) -> str:
         f"{result.loss_name} loss {result.loss:.6g}, rmse {m['rmse']:.6g}, BIC {m['bic']:.6g}; "
         f"{plural(result.n_evals, 'evaluation')} in {result.seconds:.2f} s",
         f"fit: {result.message}",
+        *describe(result),
     ]
     if result.unidentified:
         lines.append(unidentified_line(result.unidentified))
