@@ -80,7 +80,8 @@ def _add_fit_options(p) -> None:
     p.add_argument(
         "--loss",
         choices=list(LOSSES),
-        help="the loss (default: chi2 when the data give sigma, else l2)",
+        help="the loss (default: chi2 when the data give sigma, else mixed: the noise "
+        "sigma^2 = a^2 + (b f)^2 estimated with the fit)",
     )
     p.add_argument("--seed", type=_seed, default=0, help="same seed, same result (default 0)")
     p.add_argument("--channels", help="fit only these channels, e.g. r,g,b")
@@ -118,8 +119,9 @@ def _add_fit(sub) -> None:
     p.add_argument("--walkers", type=_count, help="emcee walkers (default 32)")
     p.add_argument(
         "--noise",
-        choices=("given", "absolute", "relative"),
-        help="noise model of the posterior (default: given when the data have sigma)",
+        choices=("given", "absolute", "relative", "mixed"),
+        help="noise model of the posterior (default: the fit's: mixed after a mixed fit, "
+        "given when the data have sigma)",
     )
     p.add_argument(
         "--plot",

@@ -114,8 +114,10 @@ class PosteriorOptions(BaseModel):
     seed: int | None = Field(
         POSTERIOR["seed"], ge=0, le=SEED_MAX, description="Default: the fit's seed."
     )
-    noise: Literal["given", "absolute", "relative"] | None = Field(
-        POSTERIOR["noise"], description='Noise model; default "given" when the data have sigma.'
+    noise: Literal["given", "absolute", "relative", "mixed"] | None = Field(
+        POSTERIOR["noise"],
+        description='Noise model; default the fit\'s: "mixed" after a mixed fit (the default '
+        'without sigma), "given" when the data have sigma.',
     )
 
 
