@@ -105,7 +105,7 @@ def build(where, angles, values, channels, sigma, lines, degrees, source, units)
     if degrees is None:
         if radians_suspected(*angles):
             largest = float(max(np.max(angles[0]), np.max(angles[2])))
-            note(radians_note(where, largest, STATE_UNIT), stacklevel=4)
+            note(radians_note(where, largest, STATE_UNIT), stacklevel=6)
         degrees = True
     top = 180.0 if degrees else np.pi
     for name, column in zip(ANGLE_COLUMNS, angles):
