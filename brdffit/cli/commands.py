@@ -88,7 +88,19 @@ def read_data(args):
     data = brdffit.read(args.file, format=getattr(args, "format", None), **options)
     if getattr(args, "channels", None):
         data = data.select_channels([c.strip() for c in args.channels.split(",") if c.strip()])
-    return data
+    return to_rgb(data) if getattr(args, "rgb", False) else data
+
+
+def to_rgb(data):
+    """``--rgb``: the data in linear sRGB (``Measurements.to_srgb``, units kept: a flat
+    spectrum f gives r = g = b = f), or a CliError saying what --rgb needs."""
+    if data.wavelengths() is None:
+        raise CliError(
+            f"--rgb needs spectral channels named like '550nm'; these are "
+            f"{', '.join(data.channels)}",
+            "rgb",
+        )
+    return data.to_srgb()
 
 
 # ----------------------------------------------------------------- commands
@@ -150,7 +162,7 @@ def cmd_fit(args) -> int:
     if args.json:
         print_json(result.to_dict())
     else:
-        print(fit_text(data, result, args.file))
+        print(fit_text(data, result, args.file, every_channel=args.every_channel))
     if not result.converged:
         shout(f"the fit did not converge: {result.message}",
               "give it more time (--timeout) or check the model and the data")  # fmt: skip

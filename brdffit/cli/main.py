@@ -29,6 +29,7 @@ from .commands import (
     cmd_serve,
     cmd_synth,
 )
+from .fittable import COMPACT_ABOVE
 
 __all__ = ["build_parser", "main"]
 
@@ -86,6 +87,7 @@ def _add_fit_options(p) -> None:
     p.add_argument("--seed", type=_seed, default=0, help="same seed, same result (default 0)")
     p.add_argument("--channels", help="fit only these channels, e.g. r,g,b")
     p.add_argument("--timeout", type=_seconds, help="seconds allowed to each fit")
+    p.add_argument("--rgb", action="store_true", help="fit spectral data in linear sRGB (D65)")
     _add_json(p)
 
 
@@ -115,6 +117,11 @@ def _add_fit(sub) -> None:
         help="keep the directional albedo <= 1 at every incidence",
     )
     p.add_argument("--uncertainty", action="store_true", help="also sample the posterior")
+    p.add_argument(
+        "--every-channel",
+        action="store_true",
+        help=f"a row per channel even above {COMPACT_ABOVE} channels (default: a summary)",
+    )
     p.add_argument("--max-seconds", type=_seconds, help="time budget of the sampling (default 60)")
     p.add_argument("--walkers", type=_count, help="emcee walkers (default 32)")
     p.add_argument(

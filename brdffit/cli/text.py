@@ -13,6 +13,7 @@ import numpy as np
 from ..fitting.misfit import describe
 from ..jsonable import dumps
 from ..words import plural
+from .fittable import fit_rows, pm
 
 __all__ = [
     "Progress",
@@ -81,52 +82,20 @@ def table(header, rows) -> str:
     return "\n".join(lines)
 
 
-def _pm(summary) -> str:
-    """``median +up -down`` (84th and 16th percentiles), to two digits of the error."""
-    med, up, down = (
-        summary["median"],
-        summary["p84"] - summary["median"],
-        summary["median"] - summary["p16"],
-    )
-    err = min(e for e in (up, down, math.inf) if e > 0)
-    if not (math.isfinite(err) and math.isfinite(med)):
-        return f"{med:.6g}"
-    scale = math.floor(math.log10(abs(med))) if med else math.floor(math.log10(err))
-    digits = max(scale - math.floor(math.log10(err)) + 2, 2)
-    # "#" keeps trailing zeros: 0.35030 says the fifth digit is known to be 0.
-    return f"{med:#.{digits}g} +{up:.2g} -{down:.2g}"
+COMPACT_NOTE = (
+    "per-channel parameters summarised over the {} channels: --every-channel prints "
+    "one row per channel; --rgb fits the data in linear sRGB instead"
+)
+#: ``median +up -down`` of a posterior summary (:func:`.fittable.pm`).
+_pm = pm
 
 
-def _value_cells(result, name, channels):
-    """Cells of one parameter: one per channel for per-channel values."""
-    post = result.posterior
-    if post is not None:
-        keys = [name] if name in post.names else [f"{name}[{c}]" for c in channels]
-        if all(k in post.summary for k in keys):
-            return [_pm(post.summary[k]) for k in keys]
-    value = np.atleast_1d(np.asarray(result.params[name], dtype=float))
-    return [f"{v:.6g}" for v in value]
-
-
-def fit_text(data, result, label: str) -> str:
+def fit_text(data, result, label: str, every_channel: bool = False) -> str:
+    """The text of ``brdffit fit``: the header, the table (:mod:`.fittable`), the loss,
+    the fit's and the posterior's messages."""
     channels = list(result.channels)
-    wide = 1 < len(channels) <= 4
-    rows = []
-    for name in result.params:
-        cells = _value_cells(result, name, channels)
-        note = (
-            "fixed" if name in result.fixed else ("at a bound" if name in result.at_bounds else "")
-        )
-        if wide or len(cells) == 1:
-            rows.append([name, *cells, *[""] * (len(channels) - len(cells)), note])
-        else:
-            rows += [[f"{name}[{c}]", cell, note] for c, cell in zip(channels, cells)]
     post = result.posterior
-    if post is not None and "noise" in post.summary:
-        rows.append(
-            ["noise", _pm(post.summary["noise"]), *[""] * (len(channels) - 1) * wide, post.noise]
-        )
-    head = ["parameter", *(channels if wide else ["value"]), ""]
+    head, rows, compact = fit_rows(result, every_channel)
     kind = "median +(84th-50th) -(50th-16th) percentile" if post is not None else "best fit"
     if post is not None and not post.converged:
         kind += " of a posterior that DID NOT CONVERGE: not reliable"
@@ -138,6 +107,7 @@ def fit_text(data, result, label: str) -> str:
         table(head, rows),
         "",
         f"values: {kind}",
+        *([COMPACT_NOTE.format(len(channels))] if compact else []),
         f"{result.loss_name} loss {result.loss:.6g}, rmse {m['rmse']:.6g}, BIC {m['bic']:.6g}; "
         f"{plural(result.n_evals, 'evaluation')} in {result.seconds:.2f} s",
         f"fit: {result.message}",
