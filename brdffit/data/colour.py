@@ -45,7 +45,7 @@ import numpy as np
 
 from ..errors import DataError
 
-__all__ = ["OBSERVER", "spectral_to_xyz", "tristimulus_weights", "xyz_to_srgb"]
+__all__ = ["OBSERVER", "gamut_note", "spectral_to_xyz", "tristimulus_weights", "xyz_to_srgb"]
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
 METHODS = ("ASTM E308", "Integration")
@@ -221,8 +221,37 @@ def xyz_to_srgb(xyz, white=None) -> np.ndarray:
         ``tristimulus_weights(wavelengths, "E").sum(0)`` (the white the spectra
         were integrated with, which maps a flat spectrum to exact grey); that
         white is mapped to D65 by the Bradford transform (Lam 1985).
+
+    Colours outside the sRGB gamut (saturated spectra, such as a narrow band at
+    520 nm) have a negative component. They are returned as they are, NOT
+    clipped: the map stays linear (a fit in sRGB is then the same linear map of
+    a fit per band, and sigma propagates), and clipping would change the colour's
+    luminance and hue. :meth:`Measurements.to_srgb` says how many values are
+    negative (:func:`gamut_note`); clip for display only (``np.clip(rgb, 0, None)``).
     """
     xyz = np.asarray(xyz, dtype=float)
     if xyz.shape[-1:] != (3,) or xyz.ndim > 2:
         raise DataError(f"xyz has shape {xyz.shape}; it must be (N, 3) or (3,)", "xyz")
     return xyz @ _srgb_matrix(_white_xy(white)).T
+
+
+def gamut_note(rgb, where: str = "") -> None:
+    """Note (:func:`brdffit.notes.note`) how many linear sRGB values are negative.
+
+    A negative component means the colour lies outside the sRGB gamut (or the
+    spectrum itself was negative: measurement noise). The values are kept, not
+    clipped (see :func:`xyz_to_srgb`); nothing is said when none is negative.
+    """
+    rgb = np.asarray(rgb, dtype=float)
+    negative = int(np.count_nonzero(rgb < 0))
+    if negative:
+        from ..notes import note
+
+        rows = int(np.count_nonzero((rgb.reshape(-1, rgb.shape[-1]) < 0).any(axis=1)))
+        note(
+            f"{where + ': ' if where else ''}{negative} of {rgb.size} linear sRGB values "
+            f"(in {rows} of {rgb.size // rgb.shape[-1]} samples) are negative: those colours "
+            "lie outside the sRGB gamut (or their spectra are negative); they are kept, not "
+            "clipped, so that the map stays linear (clip for display only)",
+            stacklevel=3,
+        )

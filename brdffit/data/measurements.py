@@ -409,14 +409,21 @@ class Measurements:
         return self._linear_map(matrix, ("X", "Y", "Z"))
 
     def to_srgb(self) -> Measurements:
-        """Linear sRGB channels ``("r", "g", "b")`` (no gamma: reflectance stays linear)."""
+        """Linear sRGB channels ``("r", "g", "b")`` (no gamma: reflectance stays linear).
+
+        Out-of-gamut colours keep their negative components (not clipped: the map
+        stays linear); a note (``UserWarning``) counts them
+        (:func:`brdffit.data.colour.gamut_note`).
+        """
         if self._channels == ("r", "g", "b"):
             return self
-        from .colour import xyz_to_srgb
+        from .colour import gamut_note, xyz_to_srgb
 
         xyz = self.to_xyz()
         matrix = np.asarray(xyz_to_srgb(np.eye(3)), dtype=float)
-        return xyz._linear_map(matrix, ("r", "g", "b"))
+        out = xyz._linear_map(matrix, ("r", "g", "b"))
+        gamut_note(out.values, self._source)
+        return out
 
     def _linear_map(self, matrix: np.ndarray, names: tuple) -> Measurements:
         values = self._values @ matrix

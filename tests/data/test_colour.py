@@ -179,3 +179,36 @@ def test_bad_white_raises(white):
     with pytest.raises(DataError) as err:
         xyz_to_srgb([0.5, 0.5, 0.5], white=white)
     assert err.value.field == "white"
+
+
+# ------------------------------------------- out of gamut (issue 17): kept and said
+def _spectral_measurements(spectrum):
+    from brdffit import Measurements
+
+    n = 4
+    theta = np.full(n, 30.0)
+    values = np.tile(np.asarray(spectrum, dtype=float), (n, 1))
+    bands = [f"{w:g}nm" for w in CORNELL]
+    return Measurements.from_angles(theta, np.zeros(n), theta, np.full(n, 180.0), values,
+                                    channels=bands, degrees=True, source="green.csv")  # fmt: skip
+
+
+def test_out_of_gamut_srgb_is_kept_linear_and_noted():
+    narrow = np.where(CORNELL == 520.0, 1.0, 0.0)  # a spectral green, outside sRGB
+    data = _spectral_measurements(narrow)
+    with pytest.warns(
+        UserWarning,
+        match=r"green.csv: 8 of 12 linear sRGB values \(in 4 of 4 "
+        r"samples\) are negative: those colours lie outside the sRGB gamut",
+    ):
+        rgb = data.to_srgb()  # fmt: skip
+    expected = xyz_to_srgb(spectral_to_xyz(narrow, CORNELL))
+    assert (expected < 0).sum() == 2  # red and blue below zero for a spectral green
+    assert np.allclose(rgb.values, expected, rtol=1e-12, atol=0)  # not clipped
+
+
+def test_in_gamut_srgb_says_nothing(recwarn):
+    rgb = _spectral_measurements(np.full(31, 0.4)).to_srgb()
+    # grey to 3e-4: the E308-integrated D65 white is not exactly sRGB's tabulated one
+    assert np.allclose(rgb.values, 0.4, rtol=3e-4) and (rgb.values > 0).all()
+    assert not [w for w in recwarn if "sRGB" in str(w.message)]
