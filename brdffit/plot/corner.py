@@ -17,8 +17,9 @@ from matplotlib.figure import Figure
 
 from .._extras import require
 from ..errors import FitError
+from ..words import plural
 
-__all__ = ["corner_plot", "trace_plot"]
+__all__ = ["corner_figure", "corner_plot", "trace_plot"]
 
 #: Above this many parameters the corner plot shows a subset by default.
 CORNER_MAX = 8
@@ -31,36 +32,47 @@ def _save(fig: Figure, path, dpi: int) -> Path:
     return path
 
 
-def _corner_names(posterior, names) -> list[str]:
+def _corner_names(posterior, names, channel) -> tuple[list[str], str]:
+    """The parameters shown, and a sentence on what is left out ("" when nothing)."""
+    omitted = ""
     if names is None:
         names = list(posterior.names)
-        if len(names) > CORNER_MAX:
-            # Many channels: the sampled coordinates and the first channel's coefficients.
-            first = posterior.channels[0]
-            names = [n for n in names if n in posterior.sampled or n.endswith(f"[{first}]")]
+        if channel is not None or len(names) > CORNER_MAX:
+            # Many channels: the sampled coordinates and one channel's coefficients.
+            chosen = posterior.channels[0] if channel is None else channel
+            if chosen not in posterior.channels:
+                raise FitError(
+                    f"channel={chosen!r} is not a channel of this posterior; they are "
+                    f"{', '.join(posterior.channels)}",
+                    "channel",
+                )
+            names = [n for n in names if n in posterior.sampled or n.endswith(f"[{chosen}]")]
+            left = len(posterior.names) - len(names)
+            if left:
+                omitted = (
+                    f"channel {chosen} of {len(posterior.channels)} shown "
+                    f"({plural(left, 'parameter')} of the other channels left out; "
+                    "choose with channel=)"
+                )
     for name in names:
         posterior.index(name)
     if not names:
         raise FitError("a corner plot needs at least one parameter name", "names")
-    return list(names)
+    return list(names), omitted
 
 
-def corner_plot(posterior, path, names=None, dpi: int = 100) -> Path:
-    """Write the corner plot (histograms and pairwise densities) of a posterior as PNG.
+def _unconverged_mark(fig: Figure, posterior) -> None:
+    """The mark of :func:`.fit.unconverged_mark` on a posterior that did not converge."""
+    if not posterior.converged:
+        from .fit import unconverged_mark
 
-    Parameters
-    ----------
-    posterior : Posterior
-    path : str or Path
-    names : sequence of str, optional
-        The parameters to show. Default: all when there are at most
-        :data:`CORNER_MAX`, else the sampled ones and the first channel's coefficients.
-    dpi : int
+        unconverged_mark(fig, f"the posterior: {posterior.message}")
 
-    The dashed lines are the 16th, 50th and 84th percentiles, as in the summary.
-    """
+
+def corner_figure(posterior, names=None, channel=None) -> Figure:
+    """The figure of :func:`corner_plot`, not yet saved (its texts can be inspected)."""
     corner = require("corner", "plot")
-    names = _corner_names(posterior, names)
+    names, omitted = _corner_names(posterior, names, channel)
     data = posterior.samples[:, [posterior.index(n) for n in names]]
     # corner needs some spread in every shown column; a parameter with none gets a
     # range of its own value +- 1e-12 relative so the histogram has a width.
@@ -79,7 +91,31 @@ def corner_plot(posterior, path, names=None, dpi: int = 100) -> Path:
         range=span,
         fig=fig,
     )
-    return _save(fig, path, dpi)
+    if omitted:
+        fig.text(0.99, 0.995, omitted, fontsize=9, ha="right", va="top", gid="omitted")
+    _unconverged_mark(fig, posterior)
+    return fig
+
+
+def corner_plot(posterior, path, names=None, dpi: int = 100, channel=None) -> Path:
+    """Write the corner plot (histograms and pairwise densities) of a posterior as PNG.
+
+    Parameters
+    ----------
+    posterior : Posterior
+    path : str or Path
+    names : sequence of str, optional
+        The parameters to show. Default: all when there are at most
+        :data:`CORNER_MAX`, else the sampled ones and one channel's coefficients
+        (the figure says which channel, and how many parameters it leaves out).
+    dpi : int
+    channel : str, optional
+        The channel whose coefficients are shown when not all are (default: the first).
+
+    The dashed lines are the 16th, 50th and 84th percentiles, as in the summary.
+    A posterior that did not converge is marked in red across the top.
+    """
+    return _save(corner_figure(posterior, names, channel), path, dpi)
 
 
 def trace_plot(posterior, path, dpi: int = 100) -> Path:
@@ -110,6 +146,7 @@ def trace_plot(posterior, path, dpi: int = 100) -> Path:
     axes[-1].set_xlabel("step")
     fig.suptitle(posterior.message, fontsize=8)
     fig.tight_layout()
+    _unconverged_mark(fig, posterior)
     return _save(fig, path, dpi)
 
 

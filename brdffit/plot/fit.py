@@ -32,7 +32,14 @@ from ..models import get_model
 from ..words import plural
 from .residuals import SIGMA_LABEL, Residuals, log_hidden, residuals
 
-__all__ = ["PlaneSlice", "fit_figure", "plane_of_incidence", "plot_fit", "slice_note"]
+__all__ = [
+    "PlaneSlice",
+    "fit_figure",
+    "plane_of_incidence",
+    "plot_fit",
+    "slice_note",
+    "unconverged_mark",
+]
 
 #: Azimuth tolerance (degrees): a sample this close to the plane of incidence is in it.
 PLANE_TOLERANCE = 0.5
@@ -286,6 +293,8 @@ def fit_figure(data, result, title: str | None = None) -> Figure:
         residual_ax = axes[1]
     _residual_panel(residual_ax, data, pred, shown, colours)
     status = "converged" if result.converged else "NOT CONVERGED"
+    if not result.converged:
+        unconverged_mark(fig, result.message)
     fig.suptitle(
         f"{result.model} fitted to {title or data.source or 'the data'}\n"
         f"{result.loss_name} loss {result.loss:.4g}, rmse {result.metrics['rmse']:.4g}, {status}",
@@ -295,6 +304,20 @@ def fit_figure(data, result, title: str | None = None) -> Figure:
     )
     FigureCanvasAgg(fig)
     return fig
+
+
+def unconverged_mark(fig: Figure, message: str) -> None:
+    """The mark of a result that did not converge: a red frame round the figure and a red
+    line of text at its foot, kept out of the layout."""
+    from matplotlib.patches import Rectangle
+
+    frame = Rectangle((0.002, 0.002), 0.996, 0.996, transform=fig.transFigure, fill=False,
+                      edgecolor="red", linewidth=4, gid="unconverged")  # fmt: skip
+    fig.patches.append(frame)
+    text = fig.text(0.01, 0.008, f"NOT CONVERGED: not reliable. {message}", color="red",
+                    fontsize=9, fontweight="bold", ha="left", va="bottom", gid="unconverged",
+                    wrap=True)  # fmt: skip
+    text.set_in_layout(False)
 
 
 def plot_fit(data, result, path, title: str | None = None) -> str:
