@@ -91,8 +91,12 @@ def corner_figure(posterior, names=None, channel=None) -> Figure:
         range=span,
         fig=fig,
     )
+    # room for the notes: 0.45 inch above the panels, 0.35 inch below for the mark
+    pars = fig.subplotpars
+    fig.subplots_adjust(top=pars.top - 0.45 / size * bool(omitted),
+                        bottom=pars.bottom + 0.35 / size * (not posterior.converged))  # fmt: skip
     if omitted:
-        fig.text(0.99, 0.995, omitted, fontsize=9, ha="right", va="top", gid="omitted")
+        fig.text(0.01, 0.995, omitted, fontsize=9, ha="left", va="top", gid="omitted", wrap=True)
     _unconverged_mark(fig, posterior)
     return fig
 
