@@ -20,12 +20,27 @@ The albedos of the columns come from the quadrature of
 moderate resolution (``ROW_AZIMUTHS`` x ``ROW_INTERVALS``): its nodes are
 prepared once per fit as a :class:`~brdffit.data.geometry.Geometry`, so each step
 evaluates the model's design there and takes weighted sums. Anisotropic models
-get the incidence azimuths 0, 45 and 90 degrees as well. The fit then checks
-its result with the adaptive full-accuracy quadrature (``rtol = 1e-6``) on a
-finer grid, and says what it found.
+get the incidence azimuths 0, 45 and 90 degrees as well.
+
+The promise is albedo <= 1 at every incidence angle from 0 to 89 degrees. The
+rows hold it on :data:`INCIDENCE_GRID` (0 to 85 degrees by 5, 87.5 and 89).
+Between those angles, and by the fixed rule's own error (up to 1e-3 at grazing
+incidence), the albedo can still pass 1; so the fit checks its result with the
+adaptive full-accuracy quadrature (``rtol = 1e-6``) on :data:`CHECK_GRID`
+(every 2.5 degrees and 89) and, wherever the check finds albedo above
+``1 + ABOVE_TOL``, adds those angles as rows computed with a finer rule
+(:data:`FINE_RULE`) and polishes the fit again from its best point, up to
+:data:`MAX_ROUNDS` times: the exchange method of semi-infinite programming
+(R. Hettich and K. O. Kortanek, Semi-infinite programming: theory, methods and
+applications, SIAM Review 35 (1993) 380-429, section 7). The message says
+what the last check found, and whether the bound is met.
 """
 
 from __future__ import annotations
+
+import copy
+import time
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -33,22 +48,42 @@ from ..data.geometry import Geometry
 from ..errors import FitError
 from ..models.properties import ANISOTROPIC_PHI_I, albedo, quadrature_nodes
 
-__all__ = ["EnergyRows", "check_energy", "INCIDENCE_GRID", "CHECK_GRID"]
+__all__ = [
+    "ABOVE_TOL",
+    "CHECK_GRID",
+    "GRAZING_GRID",
+    "INCIDENCE_GRID",
+    "EnergyCheck",
+    "EnergyRows",
+    "check_energy",
+    "enforce_energy",
+]
 
-#: Incidence angles (degrees) where the fit enforces albedo <= 1.
+#: Incidence angles (degrees) where the fit enforces albedo <= 1 from the start, by
+#: the fixed rule, and (GRAZING_GRID) by the finer rule, which grazing incidence needs.
 INCIDENCE_GRID = np.arange(0.0, 86.0, 5.0)
+GRAZING_GRID = (87.5, 89.0)
 #: Incidence angles (degrees) where the result is checked.
 CHECK_GRID = np.concatenate([np.arange(0.0, 88.0, 2.5), [89.0]])
 #: Resolution of the fixed rule used inside the fit (azimuths, radial intervals):
-#: 32 azimuths erred by 5 % on ward_anisotropic at 85 degrees, 64 by 3e-4
-#: (tests/fitting/test_energy.py checks 1e-3 against the adaptive quadrature).
+#: 32 azimuths erred by 5 % on ward_anisotropic at 85 degrees, 64 by 3e-4, but by
+#: 1.3e-3 at 89 degrees, where FINE_RULE is used (tests/fitting/test_energy.py checks
+#: 1e-3 against the adaptive quadrature).
 ROW_AZIMUTHS, ROW_INTERVALS = 64, 8
+#: The rule of the rows added where the check found albedo above 1.
+FINE_RULE = (4 * ROW_AZIMUTHS, 2 * ROW_INTERVALS)
+#: Albedo above 1 + ABOVE_TOL (by the full-accuracy check) breaks the bound.
+ABOVE_TOL = 1e-5
+#: Rounds of adding the angles where the check found albedo above 1.
+MAX_ROUNDS = 3
+#: Seconds the check may take past the fit's deadline (to report something).
+CHECK_GRACE = 0.5
 
 
 class EnergyRows:
     """Albedo rows ``A c <= 1 - a_offset`` of a problem's free coefficients."""
 
-    def __init__(self, problem, grid=INCIDENCE_GRID):
+    def __init__(self, problem, grid=INCIDENCE_GRID, extra=GRAZING_GRID):
         model = problem.model
         if any(p.per_channel for p in model.params):
             raise FitError(
@@ -56,31 +91,24 @@ class EnergyRows:
                 "per channel (wavelength)",
                 "energy_conserving",
             )
-        self.problem = problem
-        theta = np.asarray(grid, dtype=float)
-        phi = np.zeros(1)
-        if model.classification.symmetry == "anisotropic":
-            phi = np.asarray(ANISOTROPIC_PHI_I, dtype=float)
-        theta, phi = (a.ravel() for a in np.meshgrid(theta, phi, indexing="ij"))
-        wi, wo, self.weights, _, _ = quadrature_nodes(
-            np.radians(theta), np.radians(phi), ROW_AZIMUTHS, ROW_INTERVALS
-        )
-        self.geometry = Geometry(wi, wo, check=False)
+        self.problem, self.grid, self.extra = problem, tuple(grid), tuple(sorted(set(extra)))
+        self.blocks = [_block(model, self.grid, (ROW_AZIMUTHS, ROW_INTERVALS))]
+        if self.extra:
+            self.blocks.append(_block(model, self.extra, FINE_RULE))
+
+    def with_angles(self, angles) -> EnergyRows:
+        """These rows plus rows at ``angles`` (degrees) by the finer rule."""
+        return EnergyRows(self.problem, self.grid, set(self.extra) | set(angles))
 
     def rows(self, shape: dict) -> tuple[np.ndarray, np.ndarray]:
         """(A, b): A of shape (T, K_free), b of shape (T,) or (C, T), for ``shape``."""
         p = self.problem
-        design = p.model.design(self.geometry, shape)
-        n_angles = self.weights.shape[0]
-
-        def integrate(values):
-            full = self.geometry.scatter(np.broadcast_to(values, (self.geometry.m,)).copy())
-            return (self.weights * full.reshape(n_angles, -1)).sum(axis=1)
-
-        columns = np.stack([integrate(c) for c in design.columns], axis=1)
-        bound = np.ones(n_angles)
-        if design.offset is not None:
-            bound = bound - integrate(design.offset)
+        columns, bound = [], []
+        for geometry, weights in self.blocks:
+            a, b = _integrated_design(p.model, shape, geometry, weights)
+            columns.append(a)
+            bound.append(b)
+        columns, bound = np.concatenate(columns), np.concatenate(bound)
         names = list(p.model.coefficients)
         for name in p.fixed_coefs:
             value = np.asarray(p.fixed[name], dtype=float)
@@ -88,15 +116,130 @@ class EnergyRows:
         return columns[:, p.coef_index], bound
 
 
-def check_energy(model, params, grid=CHECK_GRID) -> tuple[float, float, float]:
+def _block(model, grid, rule) -> tuple:
+    """The quadrature nodes of incidence angles ``grid`` (and the anisotropic
+    azimuths) as a Geometry, with their weights (T, nodes)."""
+    theta = np.asarray(grid, dtype=float)
+    phi = np.zeros(1)
+    if model.classification.symmetry == "anisotropic":
+        phi = np.asarray(ANISOTROPIC_PHI_I, dtype=float)
+    theta, phi = (a.ravel() for a in np.meshgrid(theta, phi, indexing="ij"))
+    wi, wo, weights, _, _ = quadrature_nodes(np.radians(theta), np.radians(phi), *rule)
+    return Geometry(wi, wo, check=False), weights
+
+
+def _integrated_design(model, shape, geometry, weights) -> tuple:
+    """The albedo of every design column (T, K) and ``1 -`` the offset's albedo (T,)."""
+    design = model.design(geometry, shape)
+    n_angles = weights.shape[0]
+
+    def integrate(values):
+        full = geometry.scatter(np.broadcast_to(values, (geometry.m,)).copy())
+        return (weights * full.reshape(n_angles, -1)).sum(axis=1)
+
+    columns = np.stack([integrate(c) for c in design.columns], axis=1)
+    bound = np.ones(n_angles)
+    if design.offset is not None:
+        bound = bound - integrate(design.offset)
+    return columns, bound
+
+
+def check_energy(model, params, grid=CHECK_GRID, deadline=None) -> tuple[float, float, float]:
     """Max albedo over the grid (and the azimuths of an anisotropic model) and
     channels, its error estimate, and its incidence angle."""
+    found = _check(model, params, grid, deadline)
+    return found.top, found.error, found.angle
+
+
+@dataclass(frozen=True)
+class EnergyCheck:
+    """What the full-accuracy check of an energy-conserving fit found.
+
+    ``top`` (its ``error``) at ``angle`` degrees is the largest albedo; ``above``
+    the checked angles where it passed ``1 + ABOVE_TOL``; ``enforced`` every angle
+    held by rows in the last search; ``rounds`` the polishes that added angles;
+    ``complete`` False when the fit's deadline cut the check short."""
+
+    top: float
+    error: float
+    angle: float
+    above: tuple
+    enforced: tuple
+    rounds: int = 0
+    complete: bool = True
+
+    def note(self) -> str:
+        """The check in words, for the fit's message."""
+        text = (
+            f"; energy: max directional albedo {self.top:.6f} (+-{self.error:.1e}) at "
+            f"{self.angle:g} deg (enforced at 0 to 89 deg"
+            + (f", {self.rounds} round(s) adding checked angles" if self.rounds else "")
+            + ")"
+        )
+        if not self.complete:
+            text += ", check cut short by the timeout"
+        if self.above:
+            where = "enforced there" if self.angle in self.enforced else "between enforced angles"
+            text += f", ABOVE 1 at {self.angle:g} deg ({where}): the bound is NOT met"
+        return text
+
+
+def _check(model, params, grid, deadline, enforced=()) -> EnergyCheck:
     phi = np.zeros(1)
     if model.classification.symmetry == "anisotropic":
         phi = np.asarray(ANISOTROPIC_PHI_I, dtype=float)
     theta, phi = np.meshgrid(np.asarray(grid, dtype=float), phi, indexing="ij")
-    result = albedo(model, params, theta.ravel(), phi.ravel())
+    result = albedo(model, params, theta.ravel(), phi.ravel(), deadline=deadline)
     value = np.asarray(result.value).reshape(theta.size, -1)
     error = np.asarray(result.error).reshape(theta.size, -1)
     i, c = np.unravel_index(np.argmax(value), value.shape)
-    return float(value[i, c]), float(error[i, c]), float(theta.ravel()[i])
+    above = np.unique(theta.ravel()[(value > 1 + ABOVE_TOL).any(axis=1)])
+    return EnergyCheck(
+        float(value[i, c]),
+        float(error[i, c]),
+        float(theta.ravel()[i]),
+        tuple(float(a) for a in above),
+        tuple(enforced),
+        complete=bool(np.isfinite(error).all()) and not result.stopped,
+    )
+
+
+def enforce_energy(problem, found, code, options, t0: float):
+    """Check an energy-conserving fit; where its albedo passes 1, hold those angles
+    too and polish again (module docstring).
+
+    Returns
+    -------
+    problem, found, code, EnergyCheck or None
+        The problem of the last search (its rows), that search (``n_evals`` counts
+        every round), its nlopt code, and the last check (None without energy rows).
+    """
+    from .engine import search
+
+    if problem.energy is None or found.best is None:
+        return problem, found, code, None
+    deadline = t0 + options.timeout if options.timeout is not None else None
+    local = replace(options, global_algorithm=None, restarts=0)
+    rounds = 0
+    while True:
+        check = _checked(problem, found, deadline, rounds)
+        remaining = options.max_evals - found.n_evals
+        late = deadline is not None and time.perf_counter() > deadline
+        if not check.above or rounds >= MAX_ROUNDS or found.stopped or late or remaining < 1:
+            return problem, found, code, check
+        problem = copy.copy(problem)
+        problem.energy = problem.energy.with_angles(check.above)
+        again, code = search(problem, replace(local, max_evals=remaining), found.best_x, True, t0)
+        again.n_evals += found.n_evals
+        found, rounds = again, rounds + 1
+
+
+def _checked(problem, found, deadline, rounds) -> EnergyCheck:
+    """The full-accuracy check of the search's best point (within the deadline, plus
+    CHECK_GRACE seconds to report something)."""
+    params = problem.params_of(found.best)
+    if deadline is not None:
+        deadline = max(deadline, time.perf_counter() + CHECK_GRACE)
+    energy = problem.energy
+    enforced = tuple(sorted(set(energy.grid) | set(energy.extra)))
+    return replace(_check(problem.model, params, CHECK_GRID, deadline, enforced), rounds=rounds)

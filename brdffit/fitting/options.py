@@ -89,10 +89,13 @@ class FitOptions:
         the same seed gives the same result. 0 <= seed < 2**32.
     energy_conserving : bool
         Constrain the directional albedo to at most 1 at every incidence angle
-        (0 to 85 degrees by 5, enforced exactly on the linear coefficients at
-        every step; :mod:`brdffit.fitting.energy`). The result is then checked
-        with the full-accuracy quadrature from 0 to 89 degrees:
-        ``metrics["max_albedo"]`` and the message say what was found.
+        from 0 to 89 degrees: enforced exactly on the linear coefficients at
+        every step at 0 to 85 degrees by 5, 87.5 and 89; the result is then
+        checked with the full-accuracy quadrature every 2.5 degrees and at 89,
+        and where it passes ``1 + 1e-5`` those angles are enforced too and the fit
+        polished again (:mod:`brdffit.fitting.energy`). ``metrics["max_albedo"]``
+        and the message say what the last check found, and whether the bound
+        is met.
     progress : callable, optional
         Called with a :class:`~brdffit.fitting.engine.FitProgress` now and then.
         Raising :class:`~brdffit.fitting.engine.StopFit` or returning ``False``

@@ -48,6 +48,7 @@ the azimuths refine.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cache
@@ -92,7 +93,8 @@ class Albedo:
     ``value`` has the broadcast shape of the incidence angles ``theta_i``,
     ``phi_i`` (degrees), plus a channel axis when the model gives one value per
     channel; ``error`` estimates ``|value - a(L)|`` (module docstring); ``rtol``
-    is the accuracy requested and ``n_evals`` the number of BRDF values computed.
+    is the accuracy requested and ``n_evals`` the number of BRDF values computed;
+    ``stopped`` says that the ``deadline`` ended the refinement.
     """
 
     value: np.ndarray
@@ -101,6 +103,7 @@ class Albedo:
     phi_i: np.ndarray
     rtol: float
     n_evals: int
+    stopped: bool = False
 
     def __post_init__(self):
         for array in (self.value, self.error, self.theta_i, self.phi_i):
@@ -126,7 +129,7 @@ class ReciprocityError:
         return self.max < RECIPROCITY_TOLERANCE
 
 
-def albedo(model, params, theta_i, phi_i=0.0, *, rtol=1e-6, max_level=6) -> Albedo:
+def albedo(model, params, theta_i, phi_i=0.0, *, rtol=1e-6, max_level=6, deadline=None) -> Albedo:
     """Directional albedo ``a(L) = integral f(L, V) cos(theta_o) dw_o`` (MODELS.md).
 
     Parameters
@@ -143,6 +146,10 @@ def albedo(model, params, theta_i, phi_i=0.0, *, rtol=1e-6, max_level=6) -> Albe
     max_level : int
         Finest refinement allowed, 0 to 6 (``16 * 2^max_level`` azimuths);
         ``converged`` says whether ``rtol`` was reached.
+    deadline : float, optional
+        A ``time.perf_counter()`` time after which no finer level is started (the
+        first level always completes): the estimates so far are returned, with
+        ``stopped`` set.
 
     Returns
     -------
@@ -161,10 +168,18 @@ def albedo(model, params, theta_i, phi_i=0.0, *, rtol=1e-6, max_level=6) -> Albe
             "max_level",
         )
     theta, phi = np.radians(theta_deg.ravel()), np.radians(phi_deg.ravel())
-    value, error, n_evals = _adapt(model, params, theta, phi, float(rtol), max_level)
+    value, error, n_evals, stopped = _adapt(
+        model, params, theta, phi, float(rtol), max_level, deadline
+    )
     shape = theta_deg.shape + value.shape[1:]
     return Albedo(
-        value.reshape(shape), error.reshape(shape), theta_deg, phi_deg, float(rtol), n_evals
+        value.reshape(shape),
+        error.reshape(shape),
+        theta_deg,
+        phi_deg,
+        float(rtol),
+        n_evals,
+        stopped,
     )
 
 
@@ -285,8 +300,13 @@ def _check_incidence(theta_i, phi_i) -> tuple[np.ndarray, np.ndarray]:
     return theta, phi
 
 
-def _adapt(model, params, theta, phi, rtol, max_level):
-    """Refine each incidence until its estimate is within ``rtol`` (module docstring)."""
+class _Late(Exception):
+    """The deadline passed during a level of the refinement."""
+
+
+def _adapt(model, params, theta, phi, rtol, max_level, deadline=None):
+    """Refine each incidence until its estimate is within ``rtol`` (module docstring),
+    or until the ``deadline`` (``perf_counter`` time) after the first level."""
     value = error = changes = None
     level = np.zeros((theta.size, 2), dtype=int)  # azimuthal and radial level
     last_step = np.zeros((theta.size, 2), dtype=bool)
@@ -296,9 +316,13 @@ def _adapt(model, params, theta, phi, rtol, max_level):
         refined = []
         for g, (ia, ir) in enumerate(groups):
             idx = active[which.ravel() == g]
-            v, e_az, e_rad, floor, count = _rule(
-                model, params, theta[idx], phi[idx], AZIMUTHS[ia], RADIAL_INTERVALS[ir]
-            )
+            late = None if value is None else deadline
+            try:
+                v, e_az, e_rad, floor, count = _rule(
+                    model, params, theta[idx], phi[idx], AZIMUTHS[ia], RADIAL_INTERVALS[ir], late
+                )
+            except _Late:
+                return value, error, n_evals, True
             n_evals += count
             if value is None:
                 shape = (theta.size, *v.shape[1:])
@@ -321,17 +345,21 @@ def _adapt(model, params, theta, phi, rtol, max_level):
             last_step[idx] = step
             refined.append(idx[step.any(axis=1)])
         active = np.concatenate(refined)
-    return value, error, n_evals
+    return value, error, n_evals, False
 
 
-def _rule(model, params, theta, phi, n_azimuth, n_radial):
-    """Value, azimuthal and radial estimates, rounding allowance and evaluations."""
+def _rule(model, params, theta, phi, n_azimuth, n_radial, deadline=None):
+    """Value, azimuthal and radial estimates, rounding allowance and evaluations;
+    raises _Late when the ``deadline`` passes between chunks."""
     per_angle = n_azimuth * (RADIAL_BREAKS.size + HORIZON_FRACTIONS.size) * (n_radial + 1)
     step = max(1, CHUNK_PAIRS // per_angle)
-    parts = [
-        _rule_chunk(model, params, theta[i : i + step], phi[i : i + step], n_azimuth, n_radial)
-        for i in range(0, theta.size, step)
-    ]
+    parts = []
+    for i in range(0, theta.size, step):
+        if deadline is not None and time.perf_counter() > deadline:
+            raise _Late
+        parts.append(
+            _rule_chunk(model, params, theta[i : i + step], phi[i : i + step], n_azimuth, n_radial)
+        )
     return (*(np.concatenate(a) for a in zip(*parts)), per_angle * theta.size)
 
 

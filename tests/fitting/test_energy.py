@@ -3,12 +3,22 @@ adaptive quadrature of brdffit.models.properties."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
+from helpers import shared_file
 
-from brdffit import FitError, Measurements, fit, get_model
+from brdffit import FitError, Measurements, fit, get_model, read
 from brdffit.data.geometry import directions_from_angles
-from brdffit.fitting.energy import EnergyRows
+from brdffit.fitting.energy import (
+    ABOVE_TOL,
+    GRAZING_GRID,
+    INCIDENCE_GRID,
+    EnergyCheck,
+    EnergyRows,
+    enforce_energy,
+)
 from brdffit.fitting.problem import Problem
 from brdffit.models.properties import albedo
 
@@ -75,7 +85,8 @@ def test_energy_rows_match_the_adaptive_quadrature():
     energy = problem.energy
     assert isinstance(energy, EnergyRows)
     n_theta = rows.shape[0] // 3
-    theta = np.repeat(np.arange(0.0, 86.0, 5.0), 3)[: rows.shape[0]]
+    theta = np.repeat(np.concatenate([INCIDENCE_GRID, GRAZING_GRID]), 3)
+    assert rows.shape[0] == theta.size and max(GRAZING_GRID) == 89.0
     phi = np.tile([0.0, 45.0, 90.0], n_theta)
     for j, name in enumerate(model.coefficients):
         params = {**shape, "kd": 0.0, "ks": 0.0, name: 1.0}
@@ -104,3 +115,40 @@ def test_wave_optics_models_are_refused_with_a_reason():
         fit(data, "he", energy_conserving=True)
     with pytest.raises(FitError, match="True or False"):
         fit(data, "he", energy_conserving="yes")
+
+
+def test_satin_cook_torrance_keeps_the_bound_up_to_89_degrees():
+    """Issue 17: the fit returned albedo 1.034 at 89 degrees (past the rows, which
+    ended at 85) with the note "ABOVE 1 between the enforced angles"."""
+    data = read(shared_file("rgl", "satin_rosaline_rgb.bsdf"))
+    result = fit(data, "cook_torrance", energy_conserving=True, loss="l2")
+    grazing = albedo("cook_torrance", dict(result.params), [85.0, 87.5, 89.0])
+    assert np.max(grazing.value) <= 1 + ABOVE_TOL + np.max(grazing.error)
+    assert result.metrics["max_albedo"] <= 1 + ABOVE_TOL
+    assert "ABOVE" not in result.message and "enforced at 0 to 89 deg" in result.message
+
+
+def test_angles_the_check_finds_above_one_are_enforced_and_polished_again():
+    """The exchange step alone: rows at 85 degrees only let the bright Phong
+    data pass 1 elsewhere; the check finds where, adds those angles, polishes."""
+    from brdffit.fitting.engine import search
+    from brdffit.fitting.options import FitOptions
+
+    data = data_of("phong", {"kd": [0.8, 0.6], "ks": [3.0, 1.0], "n": 5.0})
+    problem = Problem(data, "phong", loss="l2", energy_conserving=True)
+    problem.energy = EnergyRows(problem, grid=(85.0,), extra=())
+    opts = FitOptions().validate().with_loss(False).with_budgets(problem.dim)
+    found, code = search(problem, opts, problem.x_from_params({"n": 5.0}), True, 0.0)
+    assert max_albedo("phong", dict(problem.params_of(found.best))) > 1 + 1e-3
+    problem2, found2, _, check = enforce_energy(problem, found, code, replace(opts), 0.0)
+    assert check.rounds >= 1 and not check.above, check
+    assert set(problem2.energy.extra) > set()
+    assert max_albedo("phong", dict(problem2.params_of(found2.best))) <= 1 + ABOVE_TOL
+    assert "ABOVE" not in check.note()
+
+
+def test_the_note_says_where_the_bound_is_broken():
+    check = EnergyCheck(1.03, 1e-6, 88.0, (88.0,), (0.0, 85.0, 87.5, 89.0), rounds=3)
+    assert "ABOVE 1 at 88 deg (between enforced angles): the bound is NOT met" in check.note()
+    check = replace(check, angle=89.0, above=(89.0,))
+    assert "ABOVE 1 at 89 deg (enforced there)" in check.note()
