@@ -127,6 +127,7 @@ def _prepare(data, model, options: Mapping):
             f"not {type(data).__name__}",
             "data",
         )
+    _check_signal(data)
     model = get_model(model)
     fixed = _with_held(model, opts.fixed, opts.free)
     opts = opts.with_loss(has_sigma=data.sigma is not None)
@@ -134,6 +135,20 @@ def _prepare(data, model, options: Mapping):
                       energy_conserving=opts.energy_conserving)  # fmt: skip
     opts = opts.with_budgets(problem.dim)
     return opts, problem, _start(problem, opts.start)
+
+
+def _check_signal(data: Measurements) -> None:
+    """Refuse data with no value above 0: every model is >= 0, so the fit would only
+    find coefficients of 0 and leave every shape parameter where it started."""
+    values = np.asarray(data.values, dtype=float)
+    if not np.any(values > 0):
+        what = "0" if not np.any(values) else "0 or below"
+        raise DataError(
+            f"the data have no signal to fit: all {values.size} values are {what}; a "
+            "reflectance model needs values above 0 (check the file's value column and "
+            "units)",
+            "values",
+        )
 
 
 def _with_held(model, fixed, free) -> dict:

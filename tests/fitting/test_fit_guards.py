@@ -29,3 +29,17 @@ def test_a_linear_parameter_at_zero_in_one_channel_is_flagged():
     result = brdffit.fit(data, "blinn", loss="l2")
     assert np.asarray(result.params["ks"])[0] == pytest.approx(0.0, abs=1e-9)
     assert "ks" in result.at_bounds and "kd" not in result.at_bounds
+
+
+@pytest.mark.parametrize("fill", [0.0, -0.1])
+@pytest.mark.parametrize("with_sigma", [False, True])
+def test_data_without_signal_are_refused_saying_so(fill, with_sigma):
+    """Failed before: all-zero data "converged" with loss 0 (ks -0, alpha left at
+    its default)."""
+    data = brdffit.synthesize("lambert", {"kd": 0.5}, n=200)
+    sigma = np.full(data.values.shape, 0.01) if with_sigma else None
+    empty = brdffit.Measurements(data.wi, data.wo, np.full(data.values.shape, fill), sigma=sigma)
+    for call in (brdffit.fit, brdffit.check_fit):
+        with pytest.raises(brdffit.errors.DataError, match="no signal to fit") as info:
+            call(empty, "ggx")
+        assert info.value.field == "values"
