@@ -10,24 +10,44 @@ on a Cornell file (1439 samples x 31 bands) under 1 s, and a 100,000-sample
 dataset under 10 s (medians of repeated runs).
 
     python benchmarks/bench_fit.py [--skip-scipy] [--repeats 5] [--fit-repeats 3]
+    python benchmarks/bench_fit.py --noise-only [--fit-repeats 3]
 
 brdffit's time per case is the median of ``--fit-repeats`` identical seeded
-fits; scipy's is one run (its Cornell fits take minutes each).
+fits; scipy's is one run (its Cornell fits take minutes each). The comparison
+with scipy's least squares fits the ``l2`` loss (the Cornell files have no
+sigma, and their default is now the estimated noise model).
+
+The noise section (issue 12): the same problems without sigma (every
+data_synthetic/ file with its sigma columns removed, and the sharp-highlight
+sets of tests/fitting/test_noise.py) fitted with the old default ``l2``,
+``relative``, ``log`` and the new default (``mixed``, the noise model
+estimated with the fit), in one run: success (every parameter within 3 % of
+the truth, or the BRDF within 1 %) and the median time of each.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
 import numpy as np
-from _suite import CORNELL, cornell_cases, machine, recovered, synthetic_cases
+from _suite import (
+    CORNELL,
+    ROOT,
+    Case,
+    cornell_cases,
+    machine,
+    recovered,
+    synthetic_cases,
+)
 from scipy_baseline import baseline_fit
 
 import brdffit
+from brdffit.data.measurements import Measurements
 
 
-def run_cases(cases, with_scipy: bool, repeats: int):
+def run_cases(cases, with_scipy: bool, repeats: int, loss=None):
     """Each case by brdffit (median time of ``repeats`` seeded, identical fits) and,
     once, by the scipy baseline (minutes per Cornell case: one run each)."""
     rows = []
@@ -35,7 +55,7 @@ def run_cases(cases, with_scipy: bool, repeats: int):
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            ours = brdffit.fit(case.data, case.model)
+            ours = brdffit.fit(case.data, case.model, loss=loss)
             times.append(time.perf_counter() - t0)
         t_ours = float(np.median(times))
         row = {"case": case, "ours": ours, "t_ours": t_ours}
@@ -119,9 +139,10 @@ def targets(repeats: int):
     if CORNELL.exists():
         for f in ["garnet_red.astm", "krylon_blue.astm", "acryl_blue.brdf"]:
             data = brdffit.read(CORNELL / f)
-            t = timed(lambda d=data: brdffit.fit(d, "cook_torrance"), repeats)
+            t = timed(lambda d=data: brdffit.fit(d, "cook_torrance", loss="l2"), repeats)
             print(
-                f"| cook_torrance on {f} (1439 x 31) | {t:.3f} | 1 | {'yes' if t < 1 else 'NO'} |"
+                f"| cook_torrance (l2) on {f} (1439 x 31) | {t:.3f} | 1 | "
+                f"{'yes' if t < 1 else 'NO'} |"
             )
     truth = {"kd": [0.2, 0.3, 0.4], "ks": [0.5, 0.6, 0.7], "m": 0.15, "eta": 1.6}
     big = brdffit.synthesize(
@@ -140,17 +161,75 @@ def targets(repeats: int):
     )
 
 
+#: The losses of the noise section; None is the default (mixed without sigma).
+NOISE_LOSSES = ("l2", "relative", "log", None)
+
+
+def noise_cases() -> list[Case]:
+    """The problems without sigma: data_synthetic/ without its sigma columns, and the
+    sharp-highlight sets of tests/fitting/test_noise.py (three seeds each)."""
+    sys.path.insert(0, str(ROOT / "tests" / "fitting"))
+    from test_noise import SHARP, sharp_highlight
+
+    out = []
+    for case in synthetic_cases():
+        d = case.data
+        plain = Measurements(d.wi, d.wo, d.values, channels=d.channels)
+        out.append(Case(case.label, plain, case.model, case.truth))
+    for model, truth in sorted(SHARP.items()):
+        for seed in range(3):
+            out.append(Case(f"sharp/{model}/{seed}", sharp_highlight(model, truth, seed), model,
+                            truth))  # fmt: skip
+    return out
+
+
+def noise_section(repeats: int):
+    """Success and median time of each loss on the problems without sigma, one run."""
+    cases = noise_cases()
+    print(f"\n## problems without sigma ({len(cases)}), median of {repeats} fits each\n")
+    names = [loss or "default (mixed)" for loss in NOISE_LOSSES]
+    print("| problem | " + " | ".join(f"{n} s | ok" for n in names) + " |")
+    print("|---|" + "---|---|" * len(names))
+    times = {n: [] for n in names}
+    ok = {n: 0 for n in names}
+    for case in cases:
+        cells = []
+        for name, loss in zip(names, NOISE_LOSSES):
+            rows = run_cases([case], False, repeats, loss=loss)
+            good = recovered(case, rows[0]["ours"].params)
+            times[name].append(rows[0]["t_ours"])
+            ok[name] += good
+            cells.append(f"{rows[0]['t_ours']:.3f} | {'yes' if good else 'NO'}")
+        print(f"| {case.label} | " + " | ".join(cells) + " |")
+    print("\n| loss | succeeded | median s | total s | median time / l2's |")
+    print("|---|---|---|---|---|")
+    base = np.median(times["l2"])
+    for n in names:
+        med = np.median(times[n])
+        print(f"| {n} | {ok[n]}/{len(cases)} | {med:.3f} | {sum(times[n]):.1f} | "
+              f"{med / base:.2f} |")  # fmt: skip
+    ratio = np.median(times[names[-1]]) / base
+    print(f"\ndefault's median time / l2's: {ratio:.2f} (limit 1.5: "
+          f"{'met' if ratio <= 1.5 else 'NOT met'})")  # fmt: skip
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-scipy", action="store_true")
     ap.add_argument("--repeats", type=int, default=5, help="runs of each target")
     ap.add_argument("--fit-repeats", type=int, default=3, help="brdffit runs per case")
+    ap.add_argument("--noise-only", action="store_true", help="only the noise section")
     args = ap.parse_args()
     print(f"machine: {machine()}\n")
-    rows = run_cases(synthetic_cases() + cornell_cases(), not args.skip_scipy, args.fit_repeats)
+    if args.noise_only:
+        noise_section(args.fit_repeats)
+        return
+    rows = run_cases(synthetic_cases(), not args.skip_scipy, args.fit_repeats)
+    rows += run_cases(cornell_cases(), not args.skip_scipy, args.fit_repeats, loss="l2")
     table(rows, not args.skip_scipy)
     summary(rows, not args.skip_scipy)
     targets(args.repeats)
+    noise_section(args.fit_repeats)
 
 
 if __name__ == "__main__":
