@@ -38,6 +38,9 @@ from .options import DEFAULT_GLOBAL, DEFAULT_LOCAL, FitOptions
 from .problem import BAD_LOSS, Problem
 from .result import FitResult, metrics_of
 
+#: Seconds of the timeout that must be left for the posterior to be sampled at all.
+MIN_POSTERIOR_SECONDS = 0.1
+
 __all__ = [
     "DEFAULT_GLOBAL",
     "DEFAULT_LOCAL",
@@ -89,11 +92,24 @@ def fit(data, model, **options) -> FitResult:
     result = replace(result, **assess(problem, result, noise))
     result = refit_on_misfit(fit, data, model, options, result)
     if opts.uncertainty:
-        from ..posterior.sample import sample_posterior
-
-        post = sample_posterior(data, result, **dict(opts.posterior_options or {}))
-        result = replace(result, posterior=post)
+        result = _with_posterior(data, result, opts, t0)
     return result
+
+
+def _with_posterior(data, result: FitResult, opts: FitOptions, t0: float) -> FitResult:
+    """The posterior of ``result`` sampled within what is left of the fit's
+    ``timeout`` (its ``max_seconds`` capped there); none when nothing is left."""
+    from ..posterior.sample import sample_posterior
+
+    options = dict(opts.posterior_options or {})
+    if opts.timeout is not None:
+        left = t0 + opts.timeout - perf_counter()
+        if left < MIN_POSTERIOR_SECONDS:
+            note = "; posterior not sampled: the timeout was reached"
+            return replace(result, message=result.message + note)
+        given = options.get("max_seconds", 60.0)
+        options["max_seconds"] = left if given is None else min(given, left)
+    return replace(result, posterior=sample_posterior(data, result, **options))
 
 
 def check_fit(data, model, **options) -> None:
@@ -216,7 +232,8 @@ def _result(
     metrics = metrics_of(problem.predict(params), y, ctx, n_params)
     converged = code in CONVERGED and found.best.loss < BAD_LOSS and not found.stopped
     at_bounds = _at_bounds(problem, found.best_x if problem.dim else (), params)
-    unidentified = _unidentified(problem, params)
+    deadline = None if opts.timeout is None else (perf_counter() - seconds) + opts.timeout
+    unidentified = _unidentified(problem, params, deadline)
     message = ("converged: " if converged else "not converged: ") + (found.stopped or reason(code))
     if at_bounds:
         message += "; at a bound of its range: " + ", ".join(at_bounds)
@@ -248,12 +265,12 @@ def _result(
     )
 
 
-def _unidentified(problem: Problem, params: Mapping) -> dict:
+def _unidentified(problem: Problem, params: Mapping, deadline=None) -> dict:
     """The parameters the data do not constrain, with why
     (:mod:`brdffit.fitting.identifiability`); none where the check cannot be made."""
     from .identifiability import unidentified
 
     try:
-        return unidentified(problem, params)
+        return unidentified(problem, params, deadline)
     except (np.linalg.LinAlgError, FloatingPointError, ValueError):
         return {}

@@ -40,6 +40,7 @@ model's own evaluation, in the parameters as reported.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import fields, replace
 
 import numpy as np
@@ -73,7 +74,7 @@ NORMAL_INCIDENCE = 1.0
 SAME_AZIMUTH = 1.0
 
 
-def unidentified(problem, params) -> dict:
+def unidentified(problem, params, deadline=None) -> dict:
     """Name -> reason for every free parameter of a fit that the data do not constrain.
 
     Parameters
@@ -82,6 +83,9 @@ def unidentified(problem, params) -> dict:
         The fit's problem (its data, model, loss, weights and fixed parameters).
     params : mapping
         The fitted parameters, as reported.
+    deadline : float, optional
+        A ``time.perf_counter()`` time (the fit's timeout): the Fisher check stops
+        there (plus :data:`GRACE` seconds) and names nothing.
 
     Returns
     -------
@@ -91,7 +95,11 @@ def unidentified(problem, params) -> dict:
     out: dict[str, list] = {}
     for name, why in _azimuth_coverage(problem).items():
         out.setdefault(name, []).append(why)
-    for name, why in _fisher(problem, dict(params)).items():
+    try:
+        fisher = _fisher(problem, dict(params), deadline)
+    except _Late:
+        fisher = {}
+    for name, why in fisher.items():
         out.setdefault(name, []).append(why)
     return {name: "; ".join(reasons) for name, reasons in out.items()}
 
@@ -143,18 +151,28 @@ def _azimuth_coverage(problem) -> dict:
     return {name: why for name in names}
 
 
+#: Seconds the Fisher check may run past the fit's deadline.
+GRACE = 0.5
+
+
+class _Late(Exception):
+    """The fit's deadline passed during the Fisher check."""
+
+
 #: At most this many Jacobian entries (rows x columns) are formed; above it a seeded
 #: subset of the samples is used and the information scaled back to all of them.
 MAX_ENTRIES = 20_000_000
 
 
-def _fisher(problem, params: dict) -> dict:
+def _fisher(problem, params: dict, deadline=None) -> dict:
     """Unidentified parameters by the rank of the Fisher information and the widths."""
+    if deadline is not None:
+        deadline = max(deadline, time.perf_counter()) + GRACE
     rows = _rows(problem)
     base = _predict(problem, params, rows)
     w, target = problem.loss.linearised(base, _context(problem, rows))
     w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], base.shape)
-    names, kinds, columns = _jacobian(problem, params, rows, base)
+    names, kinds, columns = _jacobian(problem, params, rows, base, deadline)
     if not columns:
         return {}
     sqrt_w = np.sqrt(w).ravel()
@@ -189,8 +207,10 @@ def _context(problem, rows):
     return replace(ctx, **subset)
 
 
-def _predict(problem, params: dict, rows) -> np.ndarray:
-    """The model at the valid samples ``rows``, (M, C)."""
+def _predict(problem, params: dict, rows, deadline=None) -> np.ndarray:
+    """The model at the valid samples ``rows``, (M, C); _Late past the deadline."""
+    if deadline is not None and time.perf_counter() > deadline:
+        raise _Late
     values = np.asarray(problem.model.evaluate_prepared(problem.geometry, params, check=False))
     if not problem.geometry.all_valid:
         values = values[problem.geometry.valid]
@@ -199,7 +219,7 @@ def _predict(problem, params: dict, rows) -> np.ndarray:
     return values[rows]
 
 
-def _jacobian(problem, params: dict, rows, base) -> tuple:
+def _jacobian(problem, params: dict, rows, base, deadline=None) -> tuple:
     """Names, kinds (``log``, ``linear`` shape; ``coef``) and Jacobian columns (M, C)."""
     names, kinds, columns = [], [], []
     for p in problem.free_shape:
@@ -208,21 +228,21 @@ def _jacobian(problem, params: dict, rows, base) -> tuple:
         h = STEP * (1.0 if p.log_scale else hi - lo)
         up, down = min(x + h, hi), max(x - h, lo)
         values = [10.0**v if p.log_scale else v for v in (up, down)]
-        diff = _predict(problem, {**params, p.name: values[0]}, rows)
-        diff = diff - _predict(problem, {**params, p.name: values[1]}, rows)
+        diff = _predict(problem, {**params, p.name: values[0]}, rows, deadline)
+        diff = diff - _predict(problem, {**params, p.name: values[1]}, rows, deadline)
         names.append(p.name)
         kinds.append("log" if p.log_scale else "linear")
         columns.append(diff / (up - down))
     for p in problem.model.linear_params:
         if p.name not in problem.fixed:
-            for label, column in _coefficient_columns(problem, params, rows, base, p):
+            for label, column in _coefficient_columns(problem, params, rows, base, p, deadline):
                 names.append(label)
                 kinds.append("coef")
                 columns.append(column)
     return names, kinds, columns
 
 
-def _coefficient_columns(problem, params, rows, base, p):
+def _coefficient_columns(problem, params, rows, base, p, deadline):
     """(label, column) of linear parameter ``p`` in each channel where it is inside
     its range (at a bound, the bound decides it)."""
     value = np.broadcast_to(np.asarray(params[p.name], dtype=float), (problem.n_channels,))
@@ -233,7 +253,7 @@ def _coefficient_columns(problem, params, rows, base, p):
         h = 1e-3 * span
         shifted = value.copy()
         shifted[c] = value[c] + h if value[c] + h < p.upper else value[c] - h
-        diff = _predict(problem, {**params, p.name: _as_param(shifted)}, rows) - base
+        diff = _predict(problem, {**params, p.name: _as_param(shifted)}, rows, deadline) - base
         label = p.name if problem.n_channels == 1 else f"{p.name}[{problem.data.channels[c]}]"
         yield label, diff / (shifted[c] - value[c])
 
