@@ -38,6 +38,15 @@ from .options import DEFAULT_GLOBAL, DEFAULT_LOCAL, FitOptions
 from .problem import BAD_LOSS, Problem
 from .result import FitResult, metrics_of
 
+#: The largest |value| of fitted data must lie in this range: the fit squares
+#: residuals and weights (1/sigma^2) and sums up to 1e9 of them, which must stay
+#: finite and above the subnormals (1e-308) in double precision.
+VALUE_RANGE = (1e-100, 1e100)
+#: sigma over the largest |value| must lie in this range: the squared residuals over
+#: sigma^2, residuals on the values' scale, must stay finite and normal (within
+#: 1e+-200, room left for sums) in double precision. (A relative sigma of 1 % on a
+#: value 1e-30 of the largest is 1e-32 of it: allowed.)
+SIGMA_RANGE = (1e-100, 1e100)
 #: Seconds of the timeout that must be left for the posterior to be sampled at all.
 MIN_POSTERIOR_SECONDS = 0.1
 
@@ -154,8 +163,10 @@ def _prepare(data, model, options: Mapping):
 
 
 def _check_signal(data: Measurements) -> None:
-    """Refuse data with no value above 0: every model is >= 0, so the fit would only
-    find coefficients of 0 and leave every shape parameter where it started."""
+    """Refuse data with no value above 0 (every model is >= 0: the fit would only
+    find coefficients of 0, every shape parameter left where it started), and values
+    or sigma at scales the least squares cannot carry (:data:`VALUE_RANGE`,
+    :data:`SIGMA_RANGE`)."""
     values = np.asarray(data.values, dtype=float)
     if not np.any(values > 0):
         what = "0" if not np.any(values) else "0 or below"
@@ -165,6 +176,28 @@ def _check_signal(data: Measurements) -> None:
             "units)",
             "values",
         )
+    top = float(np.max(np.abs(values)))
+    if not VALUE_RANGE[0] <= top <= VALUE_RANGE[1]:
+        raise DataError(
+            f"the largest value is {top:.3g}: fitting needs the largest |value| between "
+            f"{VALUE_RANGE[0]:g} and {VALUE_RANGE[1]:g} (squares and sums of squares must "
+            "stay finite and normal in double precision); rescale the values",
+            "values",
+        )
+    if data.sigma is not None:
+        ratio = np.asarray(data.sigma, dtype=float) / top
+        for bad, limit, why in (
+            (ratio.min() < SIGMA_RANGE[0], "min", "the weights 1/sigma^2 would overflow"),
+            (ratio.max() > SIGMA_RANGE[1], "max", "the weights 1/sigma^2 would underflow"),
+        ):
+            if bad:
+                sigma = float(getattr(np.asarray(data.sigma), limit)())
+                raise DataError(
+                    f"sigma {sigma:.3g} is {sigma / top:.3g} times the largest value "
+                    f"({top:.3g}): {why}; sigma must be between {SIGMA_RANGE[0]:g} and "
+                    f"{SIGMA_RANGE[1]:g} times it (give sigma in the values' units)",
+                    "sigma",
+                )
 
 
 def _with_held(model, fixed, free) -> dict:

@@ -43,3 +43,39 @@ def test_data_without_signal_are_refused_saying_so(fill, with_sigma):
         with pytest.raises(brdffit.errors.DataError, match="no signal to fit") as info:
             call(empty, "ggx")
         assert info.value.field == "values"
+
+
+def _ggx_data(scale=1.0, sigma=None):
+    data = brdffit.synthesize("ggx", {"kd": 0.3, "ks": 0.5, "alpha": 0.2}, n=300)
+    values = np.asarray(data.values) * scale
+    sig = None if sigma is None else np.full(values.shape, sigma)
+    return brdffit.Measurements(data.wi, data.wo, values, sigma=sig)
+
+
+@pytest.mark.parametrize(
+    ("scale", "sigma", "field", "words"),
+    [
+        (1e300, None, "values", "rescale the values"),
+        (1e-300, None, "values", "rescale the values"),
+        (1.0, 1e-300, "sigma", "would overflow"),
+        (1.0, 1e300, "sigma", "would underflow"),
+    ],
+)
+def test_scales_a_double_cannot_carry_are_refused_quietly(capfd, scale, sigma, field, words):
+    """Issue 18: 1e300 values or sigma 1e-300 printed LAPACK DLASCL lines on stderr;
+    failed before: the fit ran (its coefficients at 0, or at their bounds) instead
+    of saying why it cannot."""
+    data = _ggx_data(scale, sigma)
+    for call in (brdffit.fit, brdffit.check_fit):
+        with pytest.raises(brdffit.errors.DataError, match=words) as info:
+            call(data, "ggx")
+        assert info.value.field == field
+    assert capfd.readouterr().err == ""
+
+
+def test_ordinary_scales_still_fit():
+    result = brdffit.fit(_ggx_data(1e-6, 1e-9), "ggx")
+    assert result.params["alpha"] == pytest.approx(0.2, rel=1e-3)
+    # sigma 1e-40 of the values (a relative sigma where a narrow lobe is 1e-38 of its
+    # peak) is small, not a scale to refuse.
+    brdffit.check_fit(_ggx_data(1.0, 1e-40), "ggx")
