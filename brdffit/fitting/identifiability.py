@@ -161,7 +161,7 @@ class _Late(Exception):
 
 #: At most this many Jacobian entries (rows x columns) are formed; above it a seeded
 #: subset of the samples is used and the information scaled back to all of them.
-MAX_ENTRIES = 20_000_000
+MAX_ENTRIES = 4_000_000
 
 
 def _fisher(problem, params: dict, deadline=None) -> dict:
@@ -175,12 +175,29 @@ def _fisher(problem, params: dict, deadline=None) -> dict:
     names, kinds, columns = _jacobian(problem, params, rows, base, deadline)
     if not columns:
         return {}
-    sqrt_w = np.sqrt(w).ravel()
-    jac = np.stack([c.ravel() * sqrt_w for c in columns], axis=1)
-    info = jac.T @ jac * (problem.geometry.m / len(rows))
+    info = _information(columns, np.sqrt(w)) * (problem.geometry.m / len(rows))
     dof = max(base.size * problem.geometry.m / len(rows) - len(names), 1.0)
     s2 = 1.0 if problem.loss.needs_sigma else float(np.sum(w * (target - base) ** 2)) / dof
     return _judge(names, kinds, info / max(s2, 1e-300), params, problem)
+
+
+def _information(columns: list, sqrt_w: np.ndarray) -> np.ndarray:
+    """``J^T W J`` of Jacobian columns: (M, C) arrays (shape parameters) and
+    ``(c, (M,))`` pairs (a coefficient of channel c, zero in the other channels)."""
+    dense = [col * sqrt_w for col in columns if not isinstance(col, tuple)]
+    sparse = [(c, v * sqrt_w[:, c]) for c, v in (x for x in columns if isinstance(x, tuple))]
+    n_dense, size = len(dense), len(columns)
+    info = np.zeros((size, size))
+    if dense:
+        flat = np.stack([d.ravel() for d in dense], axis=1)
+        info[:n_dense, :n_dense] = flat.T @ flat
+    for j, (c, v) in enumerate(sparse, n_dense):
+        info[:n_dense, j] = info[j, :n_dense] = [d[:, c] @ v for d in dense]
+    for c in {c for c, _ in sparse}:
+        idx = [j for j, (cc, _) in enumerate(sparse, n_dense) if cc == c]
+        block = np.stack([sparse[j - n_dense][1] for j in idx], axis=1)
+        info[np.ix_(idx, idx)] = block.T @ block
+    return info
 
 
 def _rows(problem) -> np.ndarray:
@@ -220,7 +237,8 @@ def _predict(problem, params: dict, rows, deadline=None) -> np.ndarray:
 
 
 def _jacobian(problem, params: dict, rows, base, deadline=None) -> tuple:
-    """Names, kinds (``log``, ``linear`` shape; ``coef``) and Jacobian columns (M, C)."""
+    """Names, kinds (``log``, ``linear`` shape; ``coef``) and Jacobian columns: (M, C)
+    for shape parameters, ``(channel, (M,))`` for coefficients (:func:`_information`)."""
     names, kinds, columns = [], [], []
     for p in problem.free_shape:
         lo, hi = (math.log10(p.lower), math.log10(p.upper)) if p.log_scale else (p.lower, p.upper)
@@ -244,18 +262,19 @@ def _jacobian(problem, params: dict, rows, base, deadline=None) -> tuple:
 
 def _coefficient_columns(problem, params, rows, base, p, deadline):
     """(label, column) of linear parameter ``p`` in each channel where it is inside
-    its range (at a bound, the bound decides it)."""
+    its range (at a bound, the bound decides it). One evaluation serves every
+    channel: a channel's values depend on its own linear parameters only."""
     value = np.broadcast_to(np.asarray(params[p.name], dtype=float), (problem.n_channels,))
     span = (p.upper if math.isfinite(p.upper) else 1.0) - p.lower
-    for c in range(problem.n_channels):
-        if not p.lower + 1e-9 * span < value[c] < p.upper - 1e-9 * span:
-            continue
-        h = 1e-3 * span
-        shifted = value.copy()
-        shifted[c] = value[c] + h if value[c] + h < p.upper else value[c] - h
-        diff = _predict(problem, {**params, p.name: _as_param(shifted)}, rows, deadline) - base
+    inside = (value > p.lower + 1e-9 * span) & (value < p.upper - 1e-9 * span)
+    if not inside.any():
+        return
+    h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
+    shifted = value + h
+    diff = _predict(problem, {**params, p.name: _as_param(shifted)}, rows, deadline) - base
+    for c in np.flatnonzero(inside):
         label = p.name if problem.n_channels == 1 else f"{p.name}[{problem.data.channels[c]}]"
-        yield label, diff / (shifted[c] - value[c])
+        yield label, (int(c), diff[:, c] / h[c])
 
 
 def _as_param(values: np.ndarray):
