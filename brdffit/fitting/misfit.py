@@ -40,6 +40,9 @@ __all__ = ["ALPHA", "MISFIT_LOSS", "assess", "misfit_test", "refit_on_misfit"]
 
 #: Level of the misfit tests (false alarm rate of a fit whose model is right).
 ALPHA = 1e-6
+#: A fit whose residual rms is below this fraction of the data's reproduces them to
+#: round-off: noiseless data, whose residual signs follow the arithmetic, not a misfit.
+EXACT = 1e-9
 
 
 def _angles(data) -> tuple[np.ndarray, np.ndarray]:
@@ -161,7 +164,12 @@ def assess(problem, result, noise) -> dict:
     chi2_known = noise is None and problem.loss.name == "chi2"
     k = result.n_params + (2 if noise is not None else 0)
     misfit = misfit_test(problem.data, z, keep, k, chi2_known)
+    if misfit["detected"] and _exact(problem, params):
+        misfit.update(detected=False, message="no misfit: the model reproduces the data to "
+                      f"round-off ({EXACT:g} of their rms); {misfit['message']}")  # fmt: skip
     metrics = dict(result.metrics)
+    if noise is not None:
+        metrics["mixed"] = result.loss  # the mixed loss needs the fit's noise model
     base = _minus_two_log_likelihood(problem, params, noise, z)
     if base is not None:
         metrics["aic"] = base + 2 * k
@@ -173,6 +181,14 @@ def assess(problem, result, noise) -> dict:
         "metrics": metrics,
         "message": message,
     }
+
+
+def _exact(problem, params) -> bool:
+    """Whether the fit reproduces the data to round-off: residual rms below
+    :data:`EXACT` times the data's (noiseless data; signs of round-off are not misfit)."""
+    y = np.asarray(problem.data.values, dtype=float)
+    r = problem.predict(params) - y
+    return bool(np.sqrt(np.mean(r * r)) <= EXACT * np.sqrt(np.mean(y * y)))
 
 
 def noise_record(problem, noise) -> dict:
@@ -228,13 +244,21 @@ def refit_on_misfit(fit, data, model, options: dict, result):
     measure that Löw, Kronander, Ynnerman and Unger (2012, ACM TOG 31(1)) found
     closest to rendered appearance for fitting measured materials; the result
     keeps the misfit verdict (``misfit["refit_loss"]``), and its message says so.
-    An explicit ``loss``, or data with sigma, are never refitted.
+    An explicit ``loss``, data with sigma, and a search cut short are never
+    refitted; the refit shares the fit's ``max_evals`` and ``timeout``.
     """
     if options.get("loss") is not None or not result.misfit["detected"]:
         return result
-    if result.loss_name != "mixed":
+    if result.loss_name != "mixed" or not result.converged:
+        return result  # a search cut short (budget, timeout, callback) proves no misfit
+    budget = {"loss": MISFIT_LOSS, "uncertainty": False}
+    if options.get("max_evals") is not None:
+        budget["max_evals"] = options["max_evals"] - result.n_evals
+    if options.get("timeout") is not None:
+        budget["timeout"] = options["timeout"] - result.seconds
+    if budget.get("max_evals", 1) < 1 or budget.get("timeout", 1.0) <= 0:
         return result
-    again = fit(data, model, **{**options, "loss": MISFIT_LOSS, "uncertainty": False})
+    again = fit(data, model, **{**options, **budget})
     noise = result.noise
     note = (
         f"; refitted with the {MISFIT_LOSS} loss (the noise model a = {noise['a']:.3g}, "

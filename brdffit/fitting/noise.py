@@ -157,6 +157,18 @@ def _round_noise(problem, found) -> tuple:
     return pred, noise
 
 
+def _counted(progress, before: int, max_evals: int, label: str):
+    """The fit's progress callback, told the evaluations of the earlier rounds too."""
+    if progress is None:
+        return None
+
+    def report(p):
+        return progress(replace(p, n_evals=p.n_evals + before, max_evals=max_evals,
+                                stage=f"{label}, {p.stage}"))  # fmt: skip
+
+    return report
+
+
 def reweight(problem, found, code, options, t0: float):
     """The reweighting rounds of the ``mixed`` loss after the first search.
 
@@ -180,7 +192,7 @@ def reweight(problem, found, code, options, t0: float):
     if not problem.loss.needs_noise or found.best is None:
         return problem, found, code, None
     local = replace(options, global_algorithm=None, restarts=0)
-    used = None
+    used, rounds = None, 0
     for _ in range(ROUNDS):
         if found.stopped:
             break
@@ -190,9 +202,12 @@ def reweight(problem, found, code, options, t0: float):
         remaining = options.max_evals - found.n_evals
         if remaining < 1:
             break
-        used = noise
+        used, rounds = noise, rounds + 1
         problem = problem.reweighted(noise.sigma(pred))
-        again, code = search(problem, replace(local, max_evals=remaining), found.best_x, True, t0)
+        opts = replace(local, max_evals=remaining,
+                       progress=_counted(options.progress, found.n_evals, options.max_evals,
+                                         f"reweighted {rounds}"))  # fmt: skip
+        again, code = search(problem, opts, found.best_x, True, t0)
         again.n_evals += found.n_evals
         found = again
     if used is None:
