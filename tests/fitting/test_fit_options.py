@@ -133,7 +133,8 @@ def test_options_record_what_reproduces_the_fit(blinn_data):
     first = fit(blinn_data, "blinn", weights=weights, **given)
     recorded = dict(first.options)
     assert {k: recorded[k] for k in given} == given
-    assert recorded["loss"] == "l2" and recorded["max_evals"] >= 90 + 150 * 2
+    # No sigma: the default is the noise model estimated with the fit.
+    assert recorded["loss"] == "mixed" and recorded["max_evals"] >= 90 + 150 * 2
     summary = recorded.pop("weights")
     assert summary == {"count": blinn_data.n, "min": 0.0, "max": 2.0, "zeros": 1}
     again = fit(blinn_data, "blinn", weights=first.weights, **recorded)

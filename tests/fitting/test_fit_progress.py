@@ -74,7 +74,7 @@ def test_stop_during_the_global_stage_on_a_subsample_still_answers(monkeypatch, 
 
     monkeypatch.setattr(engine, "GLOBAL_SAMPLES", 100)
     calls = Calls(_raise(StopFit()), at=1)
-    result = fit(data, "cook_torrance", progress=calls)
+    result = fit(data, "cook_torrance", progress=calls, loss="l2")
     assert calls.seen[0].stage == "global"
     assert not result.converged and "stopped by the progress callback" in result.message
     assert result.n_samples == data.n and result.n_evals == calls.seen[0].n_evals + 1

@@ -40,7 +40,7 @@ def peak_offsets(model, params, incidences) -> np.ndarray:
 @pytest.mark.parametrize("name", MODELS)
 def test_real_fit_is_sound_and_beats_scipy(cornell, name):
     model = brdffit.get_model(name)
-    result = brdffit.fit(cornell, name)
+    result = brdffit.fit(cornell, name, loss="l2")  # the scipy baseline is least squares
     assert result.n_channels == 31 and result.n_samples == 1439
     for p in model.linear_params:
         assert np.all(np.asarray(result.params[p.name]) >= 0), p.name
@@ -73,9 +73,10 @@ def test_he_on_garnet_trails_cook_torrance_for_the_reasons_given():
     keep the He fit to about 20 s."""
     data = brdffit.read(shared_file("cornell", "garnet_red.astm"))
     data = data.select_channels(list(data.channels[::10]))
-    he = brdffit.fit(data, "he")
-    cook = brdffit.fit(data, "cook_torrance")
-    diffuse = brdffit.fit(data, "lambert")
+    # The losses are compared in l2 (as measured for issue 7).
+    he = brdffit.fit(data, "he", loss="l2")
+    cook = brdffit.fit(data, "cook_torrance", loss="l2")
+    diffuse = brdffit.fit(data, "lambert", loss="l2")
     assert he.converged, he.message
     assert he.loss < 0.01 * diffuse.loss
     assert cook.loss < he.loss < 2 * cook.loss, (he.loss, cook.loss)
