@@ -11,6 +11,7 @@ dataset under 10 s (medians of repeated runs).
 
     python benchmarks/bench_fit.py [--skip-scipy] [--repeats 5] [--fit-repeats 3]
     python benchmarks/bench_fit.py --noise-only [--fit-repeats 3]
+    python benchmarks/bench_fit.py --real-only
 
 brdffit's time per case is the median of ``--fit-repeats`` identical seeded
 fits; scipy's is one run (its Cornell fits take minutes each). The comparison
@@ -213,16 +214,46 @@ def noise_section(repeats: int):
           f"{'met' if ratio <= 1.5 else 'NOT met'})")  # fmt: skip
 
 
+def real_section(models=("ggx", "cook_torrance", "ward", "blinn")):
+    """5-fold held-out log error of the default against l2 on the real files, as
+    tests/fitting/test_misfit_real.py measures it, for several models."""
+    sys.path.insert(0, str(ROOT / "tests" / "fitting"))
+    from test_misfit_real import FILES, cross_validated, load
+
+    print("\n## real files: 5-fold held-out log error, default against l2\n")
+    print("| file | model | l2 | default | default <= l2 | misfit said (folds) | l2 s | "
+          "default s |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
+    for parts in FILES:
+        if not (ROOT.parent / "shared" / "data" / parts[0] / parts[1]).exists():
+            continue
+        data = load(parts)
+        for model in models:
+            t0 = time.perf_counter()
+            old, _ = cross_validated(data, model, loss="l2")
+            t1 = time.perf_counter()
+            new, results = cross_validated(data, model)
+            t2 = time.perf_counter()
+            said = sum(r.misfit["detected"] for r in results)
+            print(f"| {parts[1]} ({data.n} x {data.n_channels}) | {model} | {old:.4g} | "
+                  f"{new:.4g} | {'yes' if new <= old else 'NO'} | {said}/{len(results)} | "
+                  f"{t1 - t0:.1f} | {t2 - t1:.1f} |")  # fmt: skip
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-scipy", action="store_true")
     ap.add_argument("--repeats", type=int, default=5, help="runs of each target")
     ap.add_argument("--fit-repeats", type=int, default=3, help="brdffit runs per case")
     ap.add_argument("--noise-only", action="store_true", help="only the noise section")
+    ap.add_argument("--real-only", action="store_true", help="only the real files' section")
     args = ap.parse_args()
     print(f"machine: {machine()}\n")
     if args.noise_only:
         noise_section(args.fit_repeats)
+        return
+    if args.real_only:
+        real_section()
         return
     rows = run_cases(synthetic_cases(), not args.skip_scipy, args.fit_repeats)
     rows += run_cases(cornell_cases(), not args.skip_scipy, args.fit_repeats, loss="l2")
@@ -230,6 +261,7 @@ def main():
     summary(rows, not args.skip_scipy)
     targets(args.repeats)
     noise_section(args.fit_repeats)
+    real_section()
 
 
 if __name__ == "__main__":
