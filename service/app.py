@@ -18,9 +18,11 @@ import brdffit
 
 from .errors import install_handlers
 from .jobs import FitPool, JobRunner
+from .lock import StoreLock
 from .middleware import BodyLimit
 from .routes import router
 from .routes.web import routers as web_routers
+from .security import TokenAuth
 from .settings import Settings
 from .store import JobStore
 
@@ -48,17 +50,22 @@ TAGS = [
 def _lifespan(settings: Settings):
     @asynccontextmanager
     async def lifespan(app: FastAPI):
-        store = JobStore(settings.store_path)
-        runner = JobRunner(store, settings.workers)
-        fits = FitPool(settings.fit_workers)
-        app.state.store, app.state.runner, app.state.fits = store, runner, fits
-        for job_id, attempt in store.recover():
-            runner.submit(job_id, attempt)
+        # One server per store (lock.py): recovery marks running jobs interrupted.
+        lock = StoreLock(settings.store_path).acquire()
         try:
-            yield
+            store = JobStore(settings.store_path)
+            runner = JobRunner(store, settings.workers)
+            fits = FitPool(settings.fit_workers)
+            app.state.store, app.state.runner, app.state.fits = store, runner, fits
+            for job_id, attempt in store.recover():
+                runner.submit(job_id, attempt)
+            try:
+                yield
+            finally:
+                runner.close()
+                fits.close()
         finally:
-            runner.close()
-            fits.close()
+            lock.release()
 
     return lifespan
 
@@ -79,6 +86,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for web_router in web_routers:  # the page at / and its routes
         app.include_router(web_router)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    app.add_middleware(TokenAuth, settings=settings)  # outermost: before reading any body
     return app
 
 

@@ -28,6 +28,9 @@ log = logging.getLogger("brdffit.service")
 KINDS = {404: "NotFound", 405: "MethodNotAllowed", 409: "Conflict", 413: "TooLarge",
          503: "Unavailable"}  # fmt: skip
 UNREADABLE = "There was an error parsing the body"
+#: About the longest file name a multipart part header takes (python-multipart's
+#: limit on a header line, 4,224 bytes, less the rest of Content-Disposition).
+MAX_NAME = 4000
 
 
 class ApiError(HTTPException):
@@ -79,10 +82,31 @@ async def http_error(request: Request, exc: HTTPException) -> JSONResponse:
     if exc.status_code == 400 and exc.detail == UNREADABLE:
         message = "the body cannot be read: JSON must be UTF-8 text, a form must be well-formed"
         return error_response(400, error_body(message, "body", "HTTPError"))
+    form_fault = _form_fault(exc)
+    if exc.status_code == 400 and form_fault is not None:
+        return error_response(400, error_body(*form_fault, "HTTPError"))
     field = getattr(exc, "field", None)
     kind = getattr(exc, "kind", None) or KINDS.get(exc.status_code, "HTTPError")
     body = error_body(str(exc.detail), field, kind)
     return error_response(exc.status_code, body, getattr(exc, "headers", None))
+
+
+def _form_fault(exc: HTTPException) -> tuple[str, str] | None:
+    """(message, field) of a multipart form the parser refused (Starlette answers a bare
+    "Invalid multipart data."; the parser's own error is in the exception's context)."""
+    cause, seen = exc.__context__, 0
+    while cause is not None and seen < 5:
+        if type(cause).__module__.split(".")[0] in ("python_multipart", "multipart"):
+            reason = str(cause)
+            if "header" in reason.lower():
+                return (f"the upload form cannot be read: {reason} in a part's headers, "
+                        f"most likely a file name too long (at most {MAX_NAME} characters): "
+                        "send the file under a shorter name", "file")  # fmt: skip
+            return f"the upload form cannot be read: {reason}", "body"
+        cause, seen = cause.__cause__ or cause.__context__, seen + 1
+    if str(exc.detail).startswith(("Invalid multipart", "Part exceeded", "Too many")):
+        return f"the upload form cannot be read: {exc.detail}", "body"
+    return None
 
 
 async def bug(request: Request, exc: Exception) -> JSONResponse:

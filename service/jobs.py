@@ -4,14 +4,17 @@
 attempt number. It claims the job, reads its inputs from the store, runs
 :func:`brdffit.fit` (with the posterior when asked), writes progress as it
 goes and the result or the error at the end. Because the call carries only
-ids, any ``concurrent.futures``-style executor can run it: the default is a
-:class:`~concurrent.futures.ProcessPoolExecutor` of spawned processes, and a
+ids, any ``concurrent.futures``-style executor can run it: the default is an
+:class:`~brdffit_service.pool.IsolatedPool` of spawned processes (a worker that
+dies takes only its own job: that job becomes ``interrupted``, saying why), and a
 distributed executor that can open the store can take its place
 (``JobRunner(store, executor_factory=...)``) without touching the routes.
 
 A running job stops early, at its next progress report, when its row is
-deleted (``DELETE /jobs/{id}``), resubmitted, or when the server process that
-owns the worker is gone (an orphan must not keep computing, nor write).
+cancelled (``POST /jobs/{id}/cancel``), deleted, resubmitted, or when the server
+process that owns the worker is gone (an orphan must not keep computing, nor
+write). A worker whose server is gone claims no job: the job stays ``queued``
+and the next server runs it.
 """
 
 from __future__ import annotations
@@ -22,9 +25,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
-from multiprocessing import get_context
+from concurrent.futures import Executor, Future
 
 import brdffit
 from brdffit.errors import BrdfFitError
@@ -32,6 +33,7 @@ from brdffit.jsonable import jsonable
 
 from . import artifacts
 from .errors import ApiError
+from .pool import IsolatedPool, WorkerDied
 from .store import JobStore, data_from_bytes
 
 __all__ = ["Cancelled", "FitPool", "JobRunner", "fit_to_dict", "run_job"]
@@ -44,7 +46,7 @@ PROGRESS_EVERY = 0.5
 
 
 class Cancelled(Exception):
-    """The job was deleted or resubmitted, or its server is gone: stop working on it.
+    """The job was cancelled, deleted or resubmitted, or its server is gone: stop.
 
     Not a :class:`brdffit.StopFit`, which would end the fit with a result to store:
     this abandons the job, and the fitting engine lets it through to :func:`run_job`.
@@ -60,7 +62,7 @@ class _Reporter:
         self.last = 0.0
 
     def __call__(self, progress) -> None:
-        if self.parent_pid is not None and os.getppid() != self.parent_pid:
+        if _orphan(self.parent_pid):
             raise Cancelled("the server process that started this job is gone")
         now = time.monotonic()
         if now - self.last < PROGRESS_EVERY:
@@ -69,15 +71,26 @@ class _Reporter:
         report = dataclasses.asdict(progress)
         report.setdefault("stage", "posterior")
         if not self.store.progress(self.job_id, self.attempt, jsonable(report)):
-            raise Cancelled("the job was deleted or resubmitted")
+            raise Cancelled("the job was cancelled, deleted or resubmitted")
+
+
+def _orphan(parent_pid: int | None) -> bool:
+    """True when the server process that handed out the work is gone."""
+    return parent_pid is not None and os.getppid() != parent_pid
 
 
 def run_job(store_path: str, job_id: str, attempt: int, parent_pid: int | None = None) -> str:
     """Run one attempt of a job; return its final status (``done``, ``failed``, or
-    ``gone`` when the job was deleted or taken over before or while it ran)."""
+    ``gone`` when the job was cancelled, deleted or taken over before or while it ran,
+    or when its server is gone: then a queued job is left queued for the next one)."""
+    if _orphan(parent_pid):
+        return "gone"
     store = JobStore(store_path)
     claimed = store.start(job_id, attempt)
     if claimed is None:
+        return "gone"
+    if _orphan(parent_pid):  # the server died while claiming: give the job back
+        store.release(job_id, attempt)
         return "gone"
     model, options, blob = claimed
     reporter = _Reporter(store, job_id, attempt, parent_pid)
@@ -116,26 +129,14 @@ def _exit_with_parent(parent_pid: int, every: float = 1.0) -> None:
 
 
 def _process_pool(workers: int) -> Executor:
-    # spawn, not fork: the web process has threads, and a forked child of a threaded
-    # process may inherit a lock held by another thread.
-    return ProcessPoolExecutor(
-        max_workers=workers,
-        mp_context=get_context("spawn"),
-        initializer=_exit_with_parent,
-        initargs=(os.getpid(),),
-    )
+    # Spawned processes (pool.py), each leaving when the server is gone.
+    return IsolatedPool(workers, initializer=_exit_with_parent, initargs=(os.getpid(),))
 
 
 def _stop(executor: Executor) -> None:
-    """Shut an executor down without waiting for the work it is doing."""
+    """Shut an executor down without waiting for the work it is doing (a process
+    pool's running workers are ended: they are this process's own children)."""
     executor.shutdown(wait=False, cancel_futures=True)
-    # A process pool joins its workers at exit, which would wait for every running
-    # fit; end them now (they are this process's own children).
-    processes = list((getattr(executor, "_processes", None) or {}).values())
-    for process in processes:
-        process.terminate()
-    for process in processes:
-        process.join(timeout=5)
 
 
 class JobRunner:
@@ -159,7 +160,7 @@ class JobRunner:
         with self._lock:
             try:
                 future = self._executor.submit(*args)
-            except (BrokenProcessPool, RuntimeError):
+            except RuntimeError:  # an executor that was shut down (or broke): a new one
                 self._executor = self._factory()
                 future = self._executor.submit(*args)
             self._futures[job_id] = future
@@ -178,13 +179,13 @@ class JobRunner:
         job = self.store.get(job_id)
         retries = self._retries.get(job_id, 0)
         if job and job["status"] == "queued" and job["attempt"] == attempt and retries < 3:
-            # It never started: a broken pool took it down with another job. Run it anew.
+            # It never started (its worker died before claiming it): run it anew.
             self._retries[job_id] = retries + 1
             self.submit(job_id, attempt)
             return
-        log.error("the worker of job %s died: %r", job_id, exc)
+        log.error("the worker of job %s died: %s", job_id, exc)
         self.store.interrupt(
-            job_id, attempt, f"the worker running this job died ({exc!r}); "
+            job_id, attempt, f"the worker running this job died ({exc}); "
             f"POST /jobs/{job_id}/resubmit runs it again",
         )  # fmt: skip
 
@@ -219,7 +220,6 @@ class FitPool:
     def __init__(self, workers: int):
         self.workers = workers
         self._executor = _process_pool(workers) if workers else None
-        self._lock = threading.Lock()
 
     def run(self, data, model: str, kwargs: dict) -> dict:
         if self._executor is None:
@@ -227,11 +227,7 @@ class FitPool:
         executor = self._executor
         try:
             return executor.submit(fit_to_dict, data, model, kwargs).result()
-        except BrokenProcessPool:
-            with self._lock:
-                if self._executor is executor:
-                    self._executor = _process_pool(self.workers)
-            log.error("a fit worker died; the pool was started anew")
+        except WorkerDied:  # that worker is started anew; the other fits go on
             raise ApiError(503, "the worker running this fit died; try again", None) from None
 
     def close(self) -> None:

@@ -13,7 +13,7 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, SecretStr, ValidationError
 
 __all__ = ["ENV_PREFIX", "Settings", "SettingsError"]
 
@@ -60,6 +60,17 @@ class Settings(BaseModel):
     job_timeout: float = Field(
         3600.0, gt=0, description="Seconds a job's fit, and its posterior, may each run."
     )
+    api_token: SecretStr | None = Field(
+        None,
+        min_length=1,
+        description="Bearer token asked of every request but /health, the web page's files "
+        "and the API docs (security.py); needed to listen beyond the loopback.",
+    )
+    allow_no_token: bool = Field(
+        False,
+        description="Serve beyond the loopback without a token (brdffit serve --insecure): "
+        "anyone who reaches the port can then read, cancel and delete every job.",
+    )
 
     @classmethod
     def from_env(cls, environ: Mapping[str, str] | None = None, **overrides) -> Settings:
@@ -76,7 +87,8 @@ class Settings(BaseModel):
         except ValidationError as exc:
             first = exc.errors()[0]
             name = str(first["loc"][0]) if first["loc"] else "settings"
+            shown = "(hidden)" if name == "api_token" else repr(values.get(name))
             raise SettingsError(
-                f"{name}={values.get(name)!r} is not a valid setting (environment variable "
+                f"{name}={shown} is not a valid setting (environment variable "
                 f"{ENV_PREFIX}{name.upper()}): {first['msg']}"
             ) from None

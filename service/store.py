@@ -45,7 +45,11 @@ CREATE TABLE IF NOT EXISTS jobs (
 );
 CREATE INDEX IF NOT EXISTS jobs_status ON jobs (status);
 """
-STATUSES = ("queued", "running", "done", "failed", "interrupted")
+STATUSES = ("queued", "running", "done", "failed", "interrupted", "cancelled")
+CANCELLED = (
+    "cancelled on request; its inputs are kept: POST /jobs/{id}/resubmit runs it again, "
+    "DELETE /jobs/{id} deletes it"
+)
 INTERRUPTED = (
     "the server stopped while this job ran; POST /jobs/{id}/resubmit runs it again "
     "(its inputs are kept)"
@@ -128,6 +132,21 @@ class JobStore:
             rows = db.execute(query + " ORDER BY created DESC LIMIT ?", (*args, limit))
             return [_public(row) for row in rows.fetchall()]
 
+    def cancel(self, job_id: str) -> bool:
+        """Mark a queued or running job ``cancelled``, keeping it (a running one stops at
+        its next progress report, its writes refused); False when it is neither."""
+        message = CANCELLED.replace("{id}", job_id)
+        error = json.dumps({"field": None, "message": message, "kind": "Cancelled"})
+        with self._connect() as db:
+            return (
+                db.execute(
+                    "UPDATE jobs SET status = 'cancelled', finished = ?, error = ? "
+                    "WHERE id = ? AND status IN ('queued', 'running')",
+                    (time.time(), error, job_id),
+                ).rowcount
+                > 0
+            )
+
     def delete(self, job_id: str) -> bool:
         with self._connect() as db:
             return db.execute("DELETE FROM jobs WHERE id = ?", (job_id,)).rowcount > 0
@@ -153,12 +172,12 @@ class JobStore:
         return [(row[0], row[1]) for row in rows]
 
     def requeue(self, job_id: str) -> int | None:
-        """Queue an interrupted or failed job again; its new attempt number, or None."""
+        """Queue an interrupted, failed or cancelled job again; its new attempt, or None."""
         with self._connect() as db:
             changed = db.execute(
                 "UPDATE jobs SET status = 'queued', attempt = attempt + 1, started = NULL, "
                 "finished = NULL, progress = NULL, result = NULL, error = NULL "
-                "WHERE id = ? AND status IN ('interrupted', 'failed')",
+                "WHERE id = ? AND status IN ('interrupted', 'failed', 'cancelled')",
                 (job_id,),
             ).rowcount
             if not changed:
@@ -190,6 +209,16 @@ class JobStore:
                 "SELECT model, options, data FROM jobs WHERE id = ?", (job_id,)
             ).fetchone()
         return row["model"], json.loads(row["options"]), bytes(row["data"])
+
+    def release(self, job_id: str, attempt: int) -> None:
+        """Give back an attempt claimed by a worker whose server died meanwhile: queued
+        again, for the next server (unless its start-up has already marked it)."""
+        with self._connect() as db:
+            db.execute(
+                "UPDATE jobs SET status = 'queued', started = NULL "
+                "WHERE id = ? AND attempt = ? AND status = 'running' AND progress IS NULL",
+                (job_id, attempt),
+            )
 
     def progress(self, job_id: str, attempt: int, progress: dict) -> bool:
         """Record progress; False when the attempt is no longer running (deleted...)."""

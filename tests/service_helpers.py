@@ -8,8 +8,16 @@ Directions from angles are computed here with the math module (MODELS.md:
 from __future__ import annotations
 
 import math
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
 import time
 from pathlib import Path
+
+import httpx
 
 import brdffit
 from brdffit_service.schemas import EXAMPLE_DATA
@@ -62,3 +70,90 @@ def assert_error(response, status: int, field: str | None = None, words: str = "
         assert body["field"] == field, body
     assert words.lower() in body["message"].lower(), body
     return body
+
+
+# ------------------------------------------------------------- a real server
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def serve_command(store: Path, port: int, workers: int = 1, host: str = "127.0.0.1",
+                  extra=()) -> list[str]:  # fmt: skip
+    """The command line of ``brdffit serve`` on ``host:port`` with its own store."""
+    script = shutil.which("brdffit")
+    command = [script] if script else [sys.executable, "-m", "brdffit.cli.main"]
+    return [*command, "serve", "--host", host, "--port", str(port), "--store", str(store),
+            "--workers", str(workers), "--log-level", "warning", *extra]  # fmt: skip
+
+
+class Server:
+    """``brdffit serve`` in its own process group (so that its workers can be reaped),
+    on loopback; ``env``: extra environment variables (a job runner, a token)."""
+
+    def __init__(self, store: Path, log: Path, workers: int = 1, env=None, headers=None):
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.log_path = log
+        self.log = open(log, "ab")
+        self.process = subprocess.Popen(
+            serve_command(store, self.port, workers),
+            stdout=self.log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+            env={**os.environ, **(env or {})},
+        )
+        self.client = httpx.Client(base_url=self.url, timeout=30.0, headers=headers)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            assert self.process.poll() is None, log.read_text()
+            try:
+                if self.client.get("/health").status_code == 200:
+                    return
+            except httpx.TransportError:
+                time.sleep(0.2)
+        raise AssertionError(f"the server did not start:\n{log.read_text()}")
+
+    def kill(self) -> None:
+        """SIGKILL the server process only, as a crash would."""
+        self.process.send_signal(signal.SIGKILL)
+        self.process.wait(timeout=10)
+        self.client.close()
+
+    def reap(self) -> None:
+        """End whatever is left of this server's process group (its own children)."""
+        try:
+            os.killpg(self.process.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        self.process.wait(timeout=10)
+        self.client.close()
+        self.log.close()
+
+
+def proc_stat(pid: int) -> list[str] | None:
+    """The fields of /proc/<pid>/stat after the command name (state, ppid, pgrp...)."""
+    try:
+        return (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+
+
+def live_members(group: int) -> list[int]:
+    """Processes of a process group that are not zombies (Linux /proc)."""
+    out = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            fields = proc_stat(int(entry.name))
+            if fields and int(fields[2]) == group and fields[0] != "Z":
+                out.append(int(entry.name))
+    return out
+
+
+def wait_until_gone(group: int, seconds: float = 10.0) -> None:
+    """Wait until no process of ``group`` lives (a killed server's orphaned workers)."""
+    deadline = time.monotonic() + seconds
+    while live_members(group) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert live_members(group) == [], "orphaned workers of a killed server still run"

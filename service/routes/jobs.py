@@ -27,6 +27,7 @@ __all__ = ["router"]
 
 router = APIRouter(tags=["jobs"])
 ACCEPTED = {**ERRORS, 202: {"description": "Accepted; stored before this answer."}}
+CONFLICT = {**NOT_FOUND, 409: {"model": ErrorOut, "description": "The job's status forbids it."}}
 
 
 def _submit(store, runner, response: Response, model: str, kwargs: dict, data, notes) -> dict:
@@ -90,9 +91,24 @@ def get_job(job_id: str, store: StoreDep):
     return _job(store, job_id)
 
 
+@router.post("/jobs/{job_id}/cancel", response_model=JobOut, responses=CONFLICT)
+def cancel_job(job_id: str, store: StoreDep, runner: RunnerDep):
+    """Stop a queued or running job and keep it, ``cancelled``, with its inputs (a running
+    one stops at its next progress report); ``resubmit`` runs it again. Deleting a
+    job is a separate act: ``DELETE /jobs/{id}``."""
+    if not store.cancel(job_id):
+        job = _job(store, job_id)
+        raise ApiError(409, f"job {job_id} is {job['status']}; only queued or running jobs "
+                       "can be cancelled", "id")  # fmt: skip
+    runner.cancel(job_id)
+    return _job(store, job_id)
+
+
 @router.delete("/jobs/{job_id}", status_code=204, responses=NOT_FOUND)
 def delete_job(job_id: str, store: StoreDep, runner: RunnerDep):
-    """Forget a job: a queued one never runs, a running one stops at its next report."""
+    """Delete a job, its inputs and its result, for good: a queued one never runs, a
+    running one stops at its next report. To stop a job and keep it, cancel it
+    (``POST /jobs/{id}/cancel``)."""
     if not store.delete(job_id):
         raise ApiError(404, f"there is no job {job_id!r}", "id")
     runner.cancel(job_id)
@@ -100,13 +116,13 @@ def delete_job(job_id: str, store: StoreDep, runner: RunnerDep):
 
 
 @router.post("/jobs/{job_id}/resubmit", status_code=202, response_model=JobOut,
-             responses={**NOT_FOUND, 409: {"model": ErrorOut}})  # fmt: skip
+             responses=CONFLICT)  # fmt: skip
 def resubmit_job(job_id: str, store: StoreDep, runner: RunnerDep):
-    """Run an ``interrupted`` or ``failed`` job again, with the inputs it was given."""
+    """Run an ``interrupted``, ``failed`` or ``cancelled`` job again, with its inputs."""
     attempt = store.requeue(job_id)
     if attempt is None:
         job = _job(store, job_id)
-        raise ApiError(409, f"job {job_id} is {job['status']}; only interrupted or failed jobs "
-                       "can be resubmitted", "id")  # fmt: skip
+        raise ApiError(409, f"job {job_id} is {job['status']}; only interrupted, failed or "
+                       "cancelled jobs can be resubmitted", "id")  # fmt: skip
     runner.submit(job_id, attempt)
     return _job(store, job_id)

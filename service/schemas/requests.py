@@ -32,7 +32,7 @@ Number = float
 PerChannel = float | list[float]
 #: Seeds go to numpy and nlopt, which take unsigned 32-bit integers.
 SEED_MAX = 2**32 - 1
-JobStatus = Literal["queued", "running", "done", "failed", "interrupted"]
+JobStatus = Literal["queued", "running", "done", "failed", "interrupted", "cancelled"]
 
 
 def _defaults(function) -> dict:

@@ -60,8 +60,9 @@ class JobOut(BaseModel):
 
     id: str = Field(description="The job's id, as in its URL /jobs/{id}.")
     status: JobStatus = Field(
-        description="queued, running, done, failed, or interrupted (the server stopped "
-        "while it ran: POST /jobs/{id}/resubmit runs it again)."
+        description="queued, running, done, failed, interrupted (the server stopped "
+        "while it ran, or its worker died: POST /jobs/{id}/resubmit runs it again), or "
+        "cancelled (POST /jobs/{id}/cancel; kept, and can be resubmitted)."
     )
     model: str = Field(description="The model being fitted.")
     created: str = Field(description="When it was accepted (ISO 8601, UTC).")
@@ -70,7 +71,9 @@ class JobOut(BaseModel):
     attempt: int = Field(description="How many times the job was submitted.")
     progress: JobProgress | None = Field(None, description="Its last progress report.")
     result: FitResultOut | None = Field(None, description="The fit, once done.")
-    error: ErrorOut | None = Field(None, description="Why it failed or was interrupted.")
+    error: ErrorOut | None = Field(
+        None, description="Why it failed, was interrupted or was cancelled."
+    )
     data_notes: list[str] | None = Field(
         None,
         description="What reading the job's data noticed (values below zero, pairs a "

@@ -16,7 +16,7 @@ def test_health_counts_jobs_by_status(client):
     body = client.get("/health").json()
     assert body["status"] == "ok" and body["version"] == brdffit.__version__
     assert body["workers"] == 1
-    assert set(body["jobs"]) == {"queued", "running", "done", "failed", "interrupted"}
+    assert set(body["jobs"]) == {"queued", "running", "done", "failed", "interrupted", "cancelled"}
 
 
 def test_openapi_lists_every_route_with_examples(client):

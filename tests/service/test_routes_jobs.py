@@ -113,6 +113,37 @@ def test_deleting_a_running_job_frees_its_worker(client):
     assert time.monotonic() - t0 < 20
 
 
+def test_cancelling_a_running_job_keeps_it_and_frees_its_worker(client):
+    """Cancel is not delete (issue 17): the job stays, ``cancelled``, saying how to run
+    it again; its worker stops at its next report; a finished job cannot be cancelled;
+    DELETE still deletes."""
+    body = {
+        "model": "ward",
+        "data": EXAMPLE_DATA,
+        "uncertainty": True,
+        "posterior_options": {"steps": 1_000_000, "max_steps": 1_000_000, "max_seconds": 60},
+    }
+    long_id = client.post("/jobs", json=body).json()["id"]
+    wait_for(client, long_id, statuses=("running",))
+    answer = client.post(f"/jobs/{long_id}/cancel")
+    assert answer.status_code == 200, answer.text
+    kept = client.get(f"/jobs/{long_id}").json()
+    assert kept["status"] == "cancelled" and kept["error"]["kind"] == "Cancelled"
+    assert f"/jobs/{long_id}/resubmit" in kept["error"]["message"]
+    assert long_id in [j["id"] for j in client.get("/jobs", params={"status": "cancelled"}).json()]
+    assert client.get("/health").json()["jobs"]["cancelled"] >= 1
+    short = client.post("/jobs", json={"model": "lambert", "data": EXAMPLE_DATA}).json()
+    assert wait_for(client, short["id"], seconds=20)["status"] == "done"
+    assert client.get(f"/jobs/{long_id}").json()["status"] == "cancelled"  # no late write
+    assert_error(client.post(f"/jobs/{short['id']}/cancel"), 409, "id", "done")
+    assert_error(client.post(f"/jobs/{long_id}/cancel"), 409, "id", "cancelled")
+    assert_error(client.post("/jobs/nope/cancel"), 404, "id")
+    assert client.post(f"/jobs/{long_id}/resubmit").json()["attempt"] == 2
+    assert client.post(f"/jobs/{long_id}/cancel").status_code == 200
+    assert client.delete(f"/jobs/{long_id}").status_code == 204
+    assert_error(client.get(f"/jobs/{long_id}"), 404)
+
+
 def test_restart_interrupts_running_jobs_and_requeues_queued_ones(tmp_path):
     store = JobStore(tmp_path / "jobs.sqlite3")
     blob = data_to_bytes(example_measurements())

@@ -8,18 +8,14 @@ orphaned worker must not overwrite it), and that it can be resubmitted.
 
 from __future__ import annotations
 
-import os
-import shutil
-import signal
+import json
 import socket
-import subprocess
 import sys
 import time
 from pathlib import Path
 
-import httpx
 import pytest
-from service_helpers import wait_for
+from service_helpers import Server, wait_for, wait_until_gone
 
 import brdffit
 
@@ -27,82 +23,6 @@ ROOT = Path(__file__).resolve().parents[2]
 WARD = ROOT / "data_synthetic" / "ward.csv"
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="uses POSIX signals")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class Server:
-    """``brdffit serve`` in its own process group (so that its workers can be reaped)."""
-
-    def __init__(self, store: Path, log: Path):
-        self.port = free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
-        script = shutil.which("brdffit")
-        command = [script] if script else [sys.executable, "-m", "brdffit.cli.main"]
-        self.log = open(log, "ab")
-        self.process = subprocess.Popen(
-            [
-                *command,
-                "serve",
-                "--host",
-                "127.0.0.1",
-                "--port",
-                str(self.port),
-                "--store",
-                str(store),
-                "--workers",
-                "1",
-                "--log-level",
-                "warning",
-            ],
-            stdout=self.log,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,
-        )
-        self.client = httpx.Client(base_url=self.url, timeout=30.0)
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            assert self.process.poll() is None, log.read_text()
-            try:
-                if self.client.get("/health").status_code == 200:
-                    return
-            except httpx.TransportError:
-                time.sleep(0.2)
-        raise AssertionError(f"the server did not start:\n{log.read_text()}")
-
-    def kill(self) -> None:
-        """SIGKILL the server process only, as a crash would."""
-        self.process.send_signal(signal.SIGKILL)
-        self.process.wait(timeout=10)
-        self.client.close()
-
-    def reap(self) -> None:
-        """End whatever is left of this server's process group (its own children)."""
-        try:
-            os.killpg(self.process.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        self.process.wait(timeout=10)
-        self.client.close()
-        self.log.close()
-
-
-def live_members(group: int) -> list[int]:
-    """Processes of a process group that are not zombies (Linux /proc)."""
-    out = []
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            if int(fields[2]) == group and fields[0] != "Z":
-                out.append(int(entry.name))
-    return out
 
 
 def wait_for_posterior(client, job_id: str, seconds: float = 30.0) -> None:
@@ -148,10 +68,7 @@ def test_results_survive_a_crash_and_the_cut_job_is_interrupted(tmp_path):
         first.kill()
         if Path("/proc/self/stat").exists():
             # The orphaned worker notices that its server is gone and leaves by itself.
-            deadline = time.monotonic() + 10
-            while live_members(first.process.pid) and time.monotonic() < deadline:
-                time.sleep(0.2)
-            assert live_members(first.process.pid) == []
+            wait_until_gone(first.process.pid)
     finally:
         first.reap()
 
@@ -171,3 +88,40 @@ def test_results_survive_a_crash_and_the_cut_job_is_interrupted(tmp_path):
         assert second.client.delete(f"/jobs/{slow_id}").status_code == 204
     finally:
         second.reap()
+
+
+def raw_request(port: int, head: bytes) -> tuple[int, dict, dict]:
+    """Send ``head`` on a socket of its own; the status, headers and JSON body answered."""
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+        sock.sendall(head)
+        chunks = []
+        while chunk := sock.recv(65536):
+            chunks.append(chunk)
+    status_line, _, rest = b"".join(chunks).partition(b"\r\n")
+    header_block, _, body = rest.partition(b"\r\n\r\n")
+    headers = dict(
+        line.decode().lower().split(": ", 1) for line in header_block.split(b"\r\n") if line
+    )
+    return int(status_line.split()[1]), headers, json.loads(body)
+
+
+def test_a_malformed_content_length_answers_json_naming_the_header(tmp_path):
+    """uvicorn's parser refuses these before the app sees them; its 400 was plain text."""
+    server = Server(tmp_path / "jobs.sqlite3", tmp_path / "server.log")
+    try:
+        for length in ("abc", "-1", "1" * 30):
+            head = (f"POST /fit HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json"
+                    f"\r\nContent-Length: {length}\r\n\r\n{{}}").encode()  # fmt: skip
+            status, headers, body = raw_request(server.port, head)
+            assert status == 400 and headers["content-type"] == "application/json", length
+            assert body["field"] == "content-length" and body["kind"] == "HTTPError"
+            assert "Content-Length" in body["message"]
+            assert body["errors"][0]["field"] == body["field"]
+        assert server.client.get("/health").status_code == 200  # the server goes on
+        # A 5,000-character file name: the multipart parser's limit on a part's headers.
+        upload = {"file": ("n" * 5000 + ".csv", WARD.read_bytes(), "text/csv")}
+        named = server.client.post("/fit/file", files=upload, data={"model": "ward"})
+        assert named.status_code == 400 and named.json()["field"] == "file"
+        assert "file name" in named.json()["message"]
+    finally:
+        server.reap()
