@@ -251,21 +251,17 @@ def cmd_serve(args) -> int:
     """Run the HTTP service (package ``brdffit_service``, folder ``service/``) under uvicorn."""
     for module in ("fastapi", "uvicorn"):
         require(module, "service")
-    import uvicorn
-
-    from brdffit_service import Settings, create_app
+    from brdffit_service import Settings
+    from brdffit_service.lock import StoreInUse
+    from brdffit_service.server import serve
     from brdffit_service.settings import SettingsError
 
     try:
         settings = Settings.from_env(
             workers=args.workers, fit_workers=args.fit_workers, store_path=args.store
         )
-    except SettingsError as exc:
+        # refuses a non-loopback host without a token, and a store another server holds
+        serve(settings, args.host, args.port, args.log_level, insecure=args.insecure)
+    except (SettingsError, StoreInUse) as exc:
         raise CliError(str(exc), "settings") from None
-    print(
-        f"brdffit {brdffit.__version__}: http://{args.host}:{args.port}/docs, jobs in "
-        f"{settings.store_path} ({settings.workers} workers)",
-        file=sys.stderr,
-    )
-    uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level=args.log_level)
     return 0

@@ -186,6 +186,8 @@ def _add_serve(sub) -> None:
     p.add_argument("--fit-workers", type=int, help="processes running POST /fit (0: threads)")
     p.add_argument("--store", help="SQLite file of jobs (BRDFFIT_STORE_PATH)")
     p.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
+    p.add_argument("--insecure", action="store_true",
+                   help="serve beyond the loopback without BRDFFIT_API_TOKEN")  # fmt: skip
     p.set_defaults(run=cmd_serve)
 
 
