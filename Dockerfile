@@ -1,6 +1,9 @@
 # The brdffit HTTP service: FastAPI on uvicorn, jobs in SQLite under /data.
 #   docker build -t brdffit .
-#   docker run --rm -p 8000:8000 -v brdffit-data:/data brdffit
+#   docker run --rm -p 8000:8000 -v brdffit-data:/data -e BRDFFIT_API_TOKEN=<secret> brdffit
+# It listens on every interface of the container, so it asks for an API token
+# (clients send "Authorization: Bearer <secret>"; /health stays open) and refuses
+# to start without one, unless told BRDFFIT_ALLOW_NO_TOKEN=1.
 FROM python:3.11-slim
 
 ENV PYTHONDONTWRITEBYTECODE=1 \
@@ -28,6 +31,7 @@ EXPOSE 8000
 HEALTHCHECK --interval=30s --timeout=5s --start-period=30s --retries=3 \
     CMD ["python", "-c", "import sys, urllib.request; sys.exit(urllib.request.urlopen('http://127.0.0.1:8000/health', timeout=4).status != 200)"]
 
-# One uvicorn process: it owns the job store (it marks the jobs of a previous run
-# interrupted at start); BRDFFIT_WORKERS processes run the jobs.
+# One uvicorn process: it owns the job store (a lock beside it refuses a second
+# server; it marks the jobs a previous run was running interrupted at start);
+# BRDFFIT_WORKERS processes run the jobs.
 CMD ["brdffit", "serve", "--host", "0.0.0.0", "--port", "8000"]
