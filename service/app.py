@@ -10,6 +10,7 @@ the body-size limit (:mod:`brdffit_service.middleware`).
 
 from __future__ import annotations
 
+import json
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
@@ -21,6 +22,7 @@ from .jobs import FitPool, JobRunner
 from .lock import StoreLock
 from .middleware import BodyLimit
 from .routes import router
+from .routes.docs import router as docs_router
 from .routes.web import routers as web_routers
 from .security import TokenAuth
 from .settings import Settings
@@ -70,6 +72,33 @@ def _lifespan(settings: Settings):
     return lifespan
 
 
+def _error_schema_for_422(app: FastAPI) -> None:
+    """Document every 422 as what it is, :class:`~brdffit_service.schemas.ErrorOut`.
+
+    FastAPI documents its own ``HTTPValidationError`` for each route with a
+    parameter and no 422 of its own (the ``/jobs/{id}`` routes...); the service's
+    handler (:mod:`.errors`) answers ErrorOut for every one of them."""
+    generate = app.openapi
+
+    def openapi() -> dict:
+        if app.openapi_schema is None:
+            spec = generate()
+            for operations in spec.get("paths", {}).values():
+                for operation in operations.values():
+                    answer = operation.get("responses", {}).get("422")
+                    if answer and "HTTPValidationError" in json.dumps(answer):
+                        schema = {"$ref": "#/components/schemas/ErrorOut"}
+                        answer["content"] = {"application/json": {"schema": schema}}
+                        answer["description"] = "Input that cannot be used; `field` says which."
+            schemas = spec.get("components", {}).get("schemas", {})
+            for name in ("HTTPValidationError", "ValidationError"):
+                schemas.pop(name, None)
+            app.openapi_schema = spec
+        return app.openapi_schema
+
+    app.openapi = openapi
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The service, with its store of jobs at ``settings.store_path``."""
     settings = settings or Settings.from_env()
@@ -79,12 +108,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         description=DESCRIPTION,
         lifespan=_lifespan(settings),
         openapi_tags=TAGS,
+        docs_url=None,  # served from the package by routes/docs.py (no CDN)
+        redoc_url=None,
     )
     app.state.settings = settings
     app.include_router(router)
     install_handlers(app)
     for web_router in web_routers:  # the page at / and its routes
         app.include_router(web_router)
+    app.include_router(docs_router)
+    _error_schema_for_422(app)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     app.add_middleware(TokenAuth, settings=settings)  # outermost: before reading any body
     return app

@@ -4,7 +4,8 @@
 const $ = (sel) => document.querySelector(sel);
 const AXES = ["origin", "symmetry", "operand", "highlight"];
 const DEFAULT_MODELS = ["ward", "ggx", "blinn"];
-const TERMINAL = new Set(["done", "failed", "interrupted", "deleted"]);
+const TERMINAL = new Set(["done", "failed", "interrupted", "cancelled", "deleted"]);
+const TOKEN_KEY = "brdffit-token";
 const POLL_MS = 700;
 const state = { models: [], file: null, jobs: {}, comparison: null, timer: null };
 
@@ -26,8 +27,40 @@ function fmt(x, digits = 4) {
   return Number(x.toPrecision(digits)).toString();
 }
 
+// ------------------------------------------------------------------- token
+// A server that listens beyond its own machine asks for its API token
+// (BRDFFIT_API_TOKEN): the page asks the user for it once, keeps it in this
+// tab (sessionStorage) and sends it as a bearer token on every API call.
+function apiToken() {
+  try { return sessionStorage.getItem(TOKEN_KEY) || ""; } catch (e) { return ""; }
+}
+
+function askToken(why) {
+  $("#token-box").hidden = false;
+  $("#token-error").hidden = !why;
+  $("#token-error").textContent = why || "";
+  $("#token").focus();
+}
+
+async function apiFetch(url, options = {}) {
+  const headers = new Headers(options.headers || {});
+  const token = apiToken();
+  if (token) headers.set("Authorization", `Bearer ${token}`);
+  const response = await fetch(url, { ...options, headers });
+  if (response.status === 401) askToken(token ? "The service refused this token; enter it again." : "");
+  return response;
+}
+
+function wireToken() {
+  $("#token-form").addEventListener("submit", (e) => {
+    e.preventDefault();
+    try { sessionStorage.setItem(TOKEN_KEY, $("#token").value.trim()); } catch (err) { /* private mode */ }
+    window.location.reload();
+  });
+}
+
 async function getJSON(url, options) {
-  const response = await fetch(url, options);
+  const response = await apiFetch(url, options);
   let body = null;
   try { body = await response.json(); } catch (e) { body = null; }
   if (!response.ok) {
@@ -162,7 +195,7 @@ function wireDrop() {
 async function dataFile() {
   const example = $("#example").value;
   if (example) {
-    const response = await fetch(`/examples/${encodeURIComponent(example)}`);
+    const response = await apiFetch(`/examples/${encodeURIComponent(example)}`);
     return new File([await response.blob()], example, { type: "text/csv" });
   }
   return state.file;
@@ -324,14 +357,26 @@ function paramRows(result) {
 }
 
 function figure(src, alt, caption) {
-  const img = el("img", { src, alt, loading: "eager" });
+  // With a token, an <img src> cannot send it: the picture is fetched, then shown.
+  const token = apiToken();
+  const img = el("img", { src: token ? null : src, alt, loading: "eager" });
+  const link = el("a", { href: token ? null : src }, img);
   const note = el("figcaption", { text: caption });
-  img.addEventListener("error", async () => {  // say why, from the service's JSON
+  const noPicture = async (response) => {  // say why, from the service's JSON
     let why = "the picture could not be loaded";
-    try { why = (await (await fetch(src)).json()).message || why; } catch (e) { /* keep */ }
-    img.closest("a").replaceWith(el("p", { class: "hint", text: `No picture: ${why}.` }));
-  });
-  return el("figure", {}, el("a", { href: src }, img), note);
+    try { why = (await (response || await apiFetch(src)).json()).message || why; } catch (e) { /* keep */ }
+    link.replaceWith(el("p", { class: "hint", text: `No picture: ${why}.` }));
+  };
+  img.addEventListener("error", () => noPicture(null));
+  if (token) {
+    apiFetch(src).then(async (response) => {
+      if (!response.ok) return noPicture(response);
+      const url = URL.createObjectURL(await response.blob());
+      img.src = url;
+      link.href = url;
+    }).catch(() => noPicture(null));
+  }
+  return el("figure", {}, link, note);
 }
 
 function renderModel(job) {
@@ -372,6 +417,7 @@ async function refreshRecent() {
 }
 
 async function start() {
+  wireToken();
   wireDrop();
   for (const axis of AXES) $(`#f-${axis}`).addEventListener("change", renderModelList);
   $("#model-list").addEventListener("change", updateCount);

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 from fastapi.testclient import TestClient
 from service_helpers import BODY_LIMIT, assert_error
@@ -71,3 +72,42 @@ def test_a_bug_answers_a_json_500(store_path):
     with TestClient(app, raise_server_exceptions=False) as c:
         body = assert_error(c.get("/broken"), 500, None, "internal error")
         assert body["kind"] == "InternalError" and "secret detail" not in body["message"]
+
+
+def test_every_422_is_documented_as_the_error_schema(client):
+    """The handler answers ErrorOut for every 422; FastAPI documented its own
+    HTTPValidationError for the routes with a path parameter (/jobs/{id}...)."""
+    spec = client.get("/openapi.json").json()
+    documented = 0
+    for path, operations in spec["paths"].items():
+        for method, operation in operations.items():
+            answer = operation["responses"].get("422")
+            if answer is not None:
+                schema = answer["content"]["application/json"]["schema"]
+                assert schema == {"$ref": "#/components/schemas/ErrorOut"}, (method, path)
+                documented += 1
+    assert documented >= 15
+    for route in ("/jobs/{job_id}", "/jobs/{job_id}/resubmit", "/jobs/{job_id}/cancel"):
+        assert all("422" in op["responses"] for op in spec["paths"][route].values()), route
+    assert "HTTPValidationError" not in json.dumps(spec)
+    body = assert_error(client.get("/jobs?limit=0"), 422, "limit")
+    assert set(body) == set(spec["components"]["schemas"]["ErrorOut"]["properties"])
+
+
+def test_the_api_docs_need_nothing_from_elsewhere(client):
+    """/docs was blank offline: it loaded Swagger UI from a CDN (issue 17)."""
+    page = client.get("/docs")
+    assert page.status_code == 200
+    urls = re.findall(r"""(?:src|href|url)\s*[=:]\s*['"]([^'"]+)['"]""", page.text)
+    assert urls and not [u for u in urls if re.match(r"(https?:)?//", u)], urls
+    assets = [u for u in urls if u.startswith("/docs/assets/")]
+    assert len(assets) == 3, urls
+    for url in assets:
+        answer = client.get(url)
+        assert answer.status_code == 200 and len(answer.content) > 500, url
+    script = client.get("/docs/assets/swagger-ui-bundle.js")
+    assert script.headers["content-type"].startswith("text/javascript")
+    assert b"5.35.0" in script.content  # Swagger UI 5 reads OpenAPI 3.1
+    assert b"Apache License" in client.get("/docs/assets/LICENSE").content
+    assert_error(client.get("/docs/assets/secret.txt"), 404, "name")
+    assert client.get("/redoc").status_code == 404  # ReDoc would need a CDN

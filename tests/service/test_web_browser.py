@@ -313,3 +313,48 @@ def test_a_reload_keeps_following_the_job(server, browser):
     )
     wait_results(browser, 1, seconds=40)
     assert browser.find_element(By.CSS_SELECTOR, "#ranking tbody tr td:last-child").text == "done"
+
+
+def test_a_server_with_a_token_asks_for_it_and_sends_it(browser, tmp_path):
+    """BRDFFIT_API_TOKEN (issue 18): the page asks for the token, keeps it for the tab
+    and sends it on its API calls, pictures included (fetched, since <img> cannot)."""
+    from service_helpers import Server
+
+    token = "page-token-1234"
+    guarded = Server(tmp_path / "jobs.sqlite3", tmp_path / "server.log", workers=1,
+                     env={"BRDFFIT_API_TOKEN": token})  # fmt: skip
+    try:
+        open_page(browser, guarded.url + "/")
+        box = browser.find_element(By.ID, "token-box")
+        WebDriverWait(browser, 10).until(lambda d: box.is_displayed())
+        assert browser.find_elements(By.CSS_SELECTOR, "#model-list input") == []
+        browser.find_element(By.ID, "token").send_keys(token)
+        browser.find_element(By.CSS_SELECTOR, "#token-form button").click()
+        WebDriverWait(browser, 20).until(
+            lambda d: len(d.find_elements(By.CSS_SELECTOR, "#model-list input")) >= 20
+        )
+        assert not browser.find_element(By.ID, "token-box").is_displayed()
+        fill_form(browser, WARD, ["ward"], steps=100, seconds=5)
+        browser.find_element(By.ID, "submit").click()
+        wait_results(browser, 1)
+        WebDriverWait(browser, 30).until(lambda d: d.execute_script(
+            "const i = [...document.querySelectorAll('#model-results img')];"
+            "return i.length > 0 && i.every(x => x.src.startsWith('blob:') && x.naturalWidth > 0)"
+        ))  # fmt: skip
+    finally:
+        browser.execute_script("sessionStorage.clear()")
+        guarded.reap()
+
+
+def test_the_api_docs_render_from_the_package(server, browser):
+    """Swagger UI comes from the package (it came from a CDN: blank offline)."""
+    browser.get(server + "/docs")
+    title = WebDriverWait(browser, 30).until(
+        lambda d: d.find_elements(By.CSS_SELECTOR, ".swagger-ui .info .title")
+    )
+    assert title[0].text.startswith("brdffit")
+    assert len(browser.find_elements(By.CSS_SELECTOR, ".opblock")) >= 15
+    loaded = browser.execute_script(
+        "return performance.getEntriesByType('resource').map(e => e.name)"
+    )
+    assert loaded and all(url.startswith(server) for url in loaded), loaded
