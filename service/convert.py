@@ -7,6 +7,7 @@ service holds no fitting logic (DESIGN.md).
 from __future__ import annotations
 
 import io
+import logging
 from contextlib import contextmanager
 
 import brdffit
@@ -22,6 +23,8 @@ __all__ = [
     "read_upload",
     "sample_limit",
 ]
+
+log = logging.getLogger("brdffit.service")
 
 #: Library fields that name a part of the data, to be found under ``data.`` in a body.
 DATA_FIELDS = {"theta_i", "phi_i", "theta_o", "phi_o", "values", "channels", "sigma", "index"}
@@ -103,7 +106,12 @@ def read_upload(content: bytes, filename: str | None, format: str | None, subsam
     except BrdfFitError as exc:
         if exc.field in FILE_FIELDS:
             exc.field = "file"
+        log.info("upload %r (%d bytes) refused: %s", upload.name, len(content), exc)
         raise
+    # The server's log names the client's file, as the answers do (never a temporary path).
+    log.info("upload %r (%d bytes): %d samples", upload.name, len(content), data.n)
+    for message in notes:
+        log.info("upload %r: %s", upload.name, message)
     if channels:
         data = data.select_channels([c.strip() for c in channels.split(",") if c.strip()])
     if limit is not None:

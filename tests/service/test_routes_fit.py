@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import struct
 import tempfile
 
@@ -260,3 +261,28 @@ def test_uploads_are_read_in_memory_and_errors_name_the_upload(
     with open(WARD_CSV, "rb") as f:
         good = client.post(route, files={"file": ("ward.csv", f)}, data={"model": "ward"})
     assert good.status_code in (200, 202), good.text
+
+
+@pytest.mark.parametrize("route", ["/fit/file", "/jobs/file"])
+def test_the_server_log_names_the_clients_file(client, caplog, route):
+    """The log once named the temporary file an upload was written to; uploads are read
+    in memory now, and the log says which of the client's files it read, refused or
+    noted something about (issue 17)."""
+    rows = WARD_CSV.read_text().splitlines()
+    last = rows[-1].split(",")
+    last[4] = "-0.05"  # the red value of the last sample (header: r,g,b,sigma_r...)
+    negative = "\n".join([*rows[:-1], ",".join(last)]).encode()
+    caplog.set_level(logging.DEBUG)
+    name = "my lab data.csv"
+    answer = client.post(route, files={"file": (name, negative)}, data={"model": "ward"})
+    assert answer.status_code in (200, 202), answer.text
+    refused = client.post(route, files={"file": ("broken scan.csv", b"nothing,here\n1,2\n")},
+                          data={"model": "ward"})  # fmt: skip
+    assert refused.status_code == 422
+    logged = [r.getMessage() for r in caplog.records if r.name == "brdffit.service"]
+    read = [m for m in logged if m.startswith(f"upload '{name}'")]
+    assert any("samples" in m for m in read), logged
+    assert any("negative" in m or "below zero" in m for m in read), logged
+    assert any(m.startswith("upload 'broken scan.csv'") and "refused" in m for m in logged)
+    everything = " ".join(r.getMessage() for r in caplog.records)
+    assert tempfile.gettempdir() not in everything and "/tmp/" not in everything
