@@ -93,10 +93,22 @@ def _error_schema_for_422(app: FastAPI) -> None:
             schemas = spec.get("components", {}).get("schemas", {})
             for name in ("HTTPValidationError", "ValidationError"):
                 schemas.pop(name, None)
+            if app.state.settings.api_token is not None:
+                _bearer(spec)
             app.openapi_schema = spec
         return app.openapi_schema
 
     app.openapi = openapi
+
+
+def _bearer(spec: dict) -> None:
+    """Say in the OpenAPI document that the routes want the API token (security.py),
+    so that /docs offers to enter it ("Authorize")."""
+    scheme = {"type": "http", "scheme": "bearer", "description": "BRDFFIT_API_TOKEN"}
+    spec.setdefault("components", {})["securitySchemes"] = {"token": scheme}
+    spec["security"] = [{"token": []}]
+    for operation in spec.get("paths", {}).get("/health", {}).values():
+        operation["security"] = []
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:

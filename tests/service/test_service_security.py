@@ -80,3 +80,11 @@ def test_brdffit_serve_refuses_a_public_address_without_a_token(tmp_path):
     assert done.returncode == 2, done.stderr
     assert "--host 0.0.0.0 listens beyond this machine" in done.stderr
     assert "BRDFFIT_API_TOKEN" in done.stderr and "--insecure" in done.stderr
+
+
+def test_the_openapi_document_asks_for_the_token_when_there_is_one(guarded, client):
+    spec = guarded.get("/openapi.json").json()
+    assert spec["components"]["securitySchemes"]["token"]["scheme"] == "bearer"
+    assert spec["security"] == [{"token": []}]
+    assert spec["paths"]["/health"]["get"]["security"] == []
+    assert "securitySchemes" not in client.get("/openapi.json").json()["components"]
