@@ -37,8 +37,11 @@ Angles are in degrees (theta from the normal, phi the azimuth). Short fits run
 synchronously on `POST /fit`, within the server's limits of samples and
 seconds; long fits and posteriors run as jobs (`POST /jobs`), stored in SQLite:
 a restart keeps every result, and marks the jobs it cut short `interrupted`
-(`POST /jobs/{id}/resubmit` runs them again). Files (CSV, ASTM, MERL, pbrt,
-MBSDF, RGL, NPZ) are uploaded to `POST /fit/file` and `POST /jobs/file`.
+(`POST /jobs/{id}/resubmit` runs them again). `POST /jobs/{id}/cancel` stops a
+job and keeps it, `cancelled`; `DELETE /jobs/{id}` deletes it. Files (CSV, ASTM,
+MERL, pbrt, MBSDF, RGL, NPZ) are uploaded to `POST /fit/file` and
+`POST /jobs/file`. A server with an API token (`BRDFFIT_API_TOKEN`) asks for it
+as `Authorization: Bearer <token>` on every route but `/health`.
 """
 
 TAGS = [
