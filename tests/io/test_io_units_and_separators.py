@@ -186,6 +186,7 @@ def test_the_command_line_warns_of_radians_and_takes_angle_unit(tmp_path, capsys
     assert "look like radians" not in capsys.readouterr().err
 
 
+@pytest.mark.filterwarnings("ignore:.*look like radians:UserWarning")
 def test_the_http_service_returns_the_note_in_data_notes(tmp_path):
     """The upload route's answer carries the reader's note; the JSON route's the
     note of Measurements.from_angles."""
