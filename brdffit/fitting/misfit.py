@@ -265,7 +265,9 @@ def refit_on_misfit(fit, data, model, options: dict, result):
         f"b = {noise['b']:.3g} estimated from these residuals is the model's discrepancy, "
         "not noise)"
     )
-    misfit = {**result.misfit, "refit_loss": MISFIT_LOSS}
+    # The verdict on the fit reported: the refit's when it sees the misfit too.
+    verdict = again.misfit if again.misfit["detected"] else result.misfit
+    misfit = {**verdict, "refit_loss": MISFIT_LOSS}
     message = again.message
     if not again.misfit["detected"]:
         message += "; " + result.misfit["message"]
