@@ -402,6 +402,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--store", help="SQLite file of jobs (BRDFFIT_STORE_PATH)")
     p.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
     p.set_defaults(run=cmd_serve)
+
+    from .cli_batch import add_parser as add_batch
+
+    add_batch(sub)
     return parser
 
 

@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 __all__ = ["BatchRow", "RowError", "pair_key"]
 
 
@@ -74,6 +76,16 @@ class BatchRow:
         """``(source, model)``: what identifies the pair in a batch and a resumed one."""
         return pair_key(self.source, self.model)
 
+    @classmethod
+    def from_dict(cls, d: dict) -> BatchRow:
+        """A row back from its :meth:`to_dict` (a resumed batch); a posterior stays a dict."""
+        error = RowError(**d["error"]) if d.get("error") else None
+        result = _result_from_dict(d["result"]) if d.get("result") else None
+        return cls(
+            d["source"], d["model"], result, error, float(d.get("seconds") or 0.0),
+            d.get("worker") or "", d.get("heldout_rmse"), d.get("heldout_loss"),
+        )  # fmt: skip
+
     def to_dict(self) -> dict:
         """Strict-JSON form: non-finite numbers become ``null``."""
         return _strict(
@@ -89,6 +101,25 @@ class BatchRow:
                 "result": None if self.result is None else self.result.to_dict(),
             }
         )
+
+
+def _result_from_dict(d: dict):
+    from brdffit.result import FitResult  # the one non-public import of brdffit.batch
+
+    def number(v):
+        return float("nan") if v is None else v
+
+    params = {k: np.asarray(v, float) if isinstance(v, list) else number(v)
+              for k, v in d["params"].items()}  # fmt: skip
+    return FitResult(
+        model=d["model"], params=params, loss=number(d["loss"]), loss_name=d["loss_name"],
+        metrics={k: number(v) for k, v in d["metrics"].items()},
+        n_samples=d["n_samples"], n_channels=d["n_channels"], n_values=d["n_values"],
+        n_params=d["n_params"], n_evals=d["n_evals"], seconds=d["seconds"],
+        converged=d["converged"], message=d["message"], channels=tuple(d["channels"]),
+        fixed=d["fixed"], options=d["options"], at_bounds=tuple(d["at_bounds"]),
+        posterior=d.get("posterior"),
+    )  # fmt: skip
 
 
 def pair_key(source: str, model: str) -> tuple:
