@@ -34,7 +34,7 @@ MODELS = ["lambert", "ggx", "ward"]
 def _cluster(n=2):
     return distributed.LocalCluster(
         n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-        dashboard_address=None,
+        dashboard_address="127.0.0.1:0",
     )  # fmt: skip
 
 
