@@ -22,6 +22,7 @@ from .batch import BatchRow, connect, fit_many
 from .batch.summary import best_per_source, best_table, write_report
 from .cli_text import table
 from .errors import BrdfFitError
+from .models import get_model
 
 __all__ = ["add_parser", "run", "read_rows"]
 
@@ -38,6 +39,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("files", nargs="+", metavar="FILE_OR_GLOB", help="data files or globs")
     p.add_argument("--models", required=True, help="comma-separated model names")
     p.add_argument("--uncertainty", action="store_true", help="also sample each posterior")
+    p.add_argument("--max-seconds", type=float, help="time budget of each posterior (60)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, help="processes of the local cluster (CPUs)")
     where.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler, tcp://host:8786")
@@ -152,12 +154,16 @@ def _clock(seconds: float) -> str:
 def _options(args) -> dict:
     options = {"seed": args.seed, "loss": args.loss, "timeout": args.timeout}
     options["max_evals"] = args.max_evals
+    if args.max_seconds is not None:
+        options["posterior_options"] = {"max_seconds": args.max_seconds}
     return {k: v for k, v in options.items() if v is not None}
 
 
 def run(args) -> int:
     """Run ``brdffit batch``; exit code 0 when every pair has a result, 1 when some failed."""
     models = list(dict.fromkeys(m.strip() for m in args.models.split(",") if m.strip()))
+    for model in models:
+        get_model(model)  # an unknown name fails before a cluster starts
     files = list(dict.fromkeys(_expand(args.files)))
     if not args.resume and os.path.exists(args.out) and os.path.getsize(args.out):
         raise BatchCliError(f"{args.out} exists: --resume continues it, or remove it", "out")

@@ -155,6 +155,24 @@ def test_a_worker_killed_mid_fit_the_pair_reruns_and_appears_once(big_files, mon
         _same_fit(row.result, brdffit.fit(data, row.model, **options))
 
 
+def test_a_pair_that_kills_its_workers_too_often_is_an_error_row(big_files):
+    import dask
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cluster = _cluster()
+    with cluster, distributed.Client(cluster) as c:
+        rows = []
+        pairs = fit_many(big_files[:1], ["ggx", "lambert"], client=c, seed=4, global_evals=3000)
+        rows.append(next(pairs))  # lambert takes milliseconds, ggx over a second
+        busy = [w for w, keys in c.processing().items() if keys]
+        os.kill(c.run(os.getpid, workers=busy)[busy[0]], signal.SIGKILL)
+        rows += list(pairs)
+    by_model = {r.model: r for r in rows}
+    assert len(rows) == 2 and by_model["lambert"].ok
+    ggx = by_model["ggx"]
+    assert not ggx.ok and ggx.error.type == "KilledWorker" and ggx.result is None
+
+
 def _cli(*args, **popen):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     env.pop("DASK_SCHEDULER_ADDRESS", None)
