@@ -25,6 +25,7 @@ from starlette.exceptions import HTTPException
 import brdffit
 from brdffit.errors import BrdfFitError
 
+from .batches import router as batches_router
 from .errors import KINDS, ApiError
 from .jobs import FitPool, JobRunner
 from .routes import router
@@ -186,6 +187,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.include_router(router)
+    app.include_router(batches_router)
     app.add_exception_handler(BrdfFitError, _library_error)
     app.add_exception_handler(RequestValidationError, _request_invalid)
     app.add_exception_handler(ValidationError, _request_invalid)
