@@ -107,7 +107,8 @@ def test_a_worker_lost_mid_job_runs_it_again(cluster, big, tmp_path):
         busy = [w for w, keys in runner.client.processing().items() if keys]
         pid = runner.client.run(os.getpid, workers=busy)[busy[0]]
         os.kill(pid, signal.SIGKILL)
-        (done,) = _wait(store, [job["id"]], {"done", "failed", "interrupted"})
+        # (interrupted for a moment, between the takeover's two steps)
+        (done,) = _wait(store, [job["id"]], {"done", "failed"})
     finally:
         runner.close()
     assert done["status"] == "done" and done["attempt"] == 2
