@@ -42,22 +42,29 @@ import brdffit  # noqa: E402
 from brdffit.batch import fit_many  # noqa: E402
 
 
-def serial(files, models, options) -> float:
-    t0 = time.perf_counter()
+def serial(files, models, options) -> tuple:
+    """Wall and CPU seconds of a plain loop in this process."""
+    t0, c0 = time.perf_counter(), time.process_time()
     for path in files:
         for model in models:
             brdffit.fit(brdffit.read(path), model, **options)
-    return time.perf_counter() - t0
+    return time.perf_counter() - t0, time.process_time() - c0, 0.0
 
 
-def batch(client, files, models, options) -> float:
-    t0 = time.perf_counter()
+def _worker_cpu(client) -> float:
+    return sum(client.run(time.process_time).values())
+
+
+def batch(client, files, models, options) -> tuple:
+    """Wall seconds, CPU seconds of the workers, CPU seconds of this process (the
+    scheduler of a LocalCluster runs here, with the client)."""
+    w0, t0, c0 = _worker_cpu(client), time.perf_counter(), time.process_time()
     rows = list(fit_many(files, models, client=client, **options))
-    seconds = time.perf_counter() - t0
+    seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     failed = [r for r in rows if not r.ok]
     if len(rows) != len(files) * len(models) or failed:
         raise SystemExit(f"batch went wrong: {len(rows)} rows, failed: {failed[:1]}")
-    return seconds
+    return seconds, _worker_cpu(client) - w0, cpu
 
 
 def cluster(n: int):
@@ -101,17 +108,22 @@ def main() -> None:
     for client, c in ((one, c1), (two, c2)):
         client.close()
         c.close()
-    med = {k: statistics.median(v) for k, v in times.items()}
-    print("| configuration | median (s) | runs (s) | pairs/s |")
-    print("|---|--:|---|--:|")
+    med = {k: statistics.median(t[0] for t in v) for k, v in times.items()}
+    cpu = {k: [statistics.median(t[i] for t in v) for i in (1, 2)] for k, v in times.items()}
+    print("| configuration | median (s) | runs (s) | pairs/s | CPU/pair: fits (ms) | "
+          "CPU/pair: scheduler+client (ms) |")  # fmt: skip
+    print("|---|--:|---|--:|--:|--:|")
     for k, v in times.items():
-        runs = ", ".join(f"{t:.2f}" for t in v)
-        print(f"| {k} | {med[k]:.2f} | {runs} | {n / med[k]:.1f} |")
+        runs = ", ".join(f"{t[0]:.2f}" for t in v)
+        print(f"| {k} | {med[k]:.2f} | {runs} | {n / med[k]:.1f} | "
+              f"{cpu[k][0] / n * 1000:.1f} | {cpu[k][1] / n * 1000:.1f} |")  # fmt: skip
     print(f"throughput ratio 2 workers / 1 worker: {med['1 worker'] / med['2 workers']:.2f}x "
           f"(target >= 1.8x)")  # fmt: skip
     print(f"overhead per pair, 1 worker over serial: "
           f"{(med['1 worker'] - med['serial']) / n * 1000:.1f} ms (target <= 50 ms); "
           f"serial fit per pair {med['serial'] / n * 1000:.1f} ms")  # fmt: skip
+    extra = (sum(cpu["1 worker"]) - cpu["serial"][0]) / n * 1000
+    print(f"CPU overhead per pair, 1 worker over serial: {extra:.1f} ms")
     print(f"# load average at end: {os.getloadavg()[0]:.2f}")
 
 

@@ -1,5 +1,6 @@
 """brdffit: fit analytic BRDF models to measured reflectance, with uncertainties."""
 
+from .batch import fit_many  # Dask is imported when a batch runs, not here
 from .compare import compare
 from .errors import BrdfFitError, DataError, FitError, FormatError, ModelError, ParameterError
 from .fitting import fit
@@ -22,6 +23,7 @@ __all__ = [
     "ParameterError",
     "compare",
     "fit",
+    "fit_many",
     "get_model",
     "list_models",
     "read",

@@ -56,7 +56,7 @@ def test_every_pair_once_and_equal_to_serial_fit(client):
     sources = [*sorted(map(str, SYNTHETIC.glob("*.csv"))), scattered]
     assert len(sources) > 20
     workers = set(client.run(os.getpid))  # the address of each worker
-    rows = list(fit_many(sources, MODELS, client=client, seed=5))
+    rows = list(brdffit.fit_many(sources, MODELS, client=client, seed=5))
     keys = [row.key for row in rows]
     assert len(keys) == len(set(keys)) == len(sources) * len(MODELS)
     for row in rows:
