@@ -251,3 +251,18 @@ def test_read_rows_refuses_a_damaged_middle_line(tmp_path):
     path.write_text('{"broken\n{"source": "a", "model": "b", "ok": true}\n')
     with pytest.raises(brdffit.BrdfFitError, match="line 1"):
         read_rows(path)
+
+
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["no_such_*.csv", "--models", "ward"], "matches no file"),
+        ([FILES[0], "--models", "wardd"], "wardd"),
+        ([FILES[0], "--models", "ward", "--test-fraction", "0.95"], "--test-fraction"),
+        ([FILES[0], "--models", "ward", "--workers", "0"], "workers=0"),
+    ],
+)
+def test_cli_bad_arguments_are_one_line_and_exit_2(argv, says, tmp_path, capsys):
+    assert main(["batch", *argv, "--out", str(tmp_path / "r.jsonl")]) == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err
