@@ -100,6 +100,9 @@ def test_bad_arguments_fail_before_any_work(client):
         list(fit_many(FILES, ["ggx"], client=client, max_evalz=3))
     assert err.value.field == "max_evalz"
     with pytest.raises(brdffit.FitError) as err:
+        list(fit_many(FILES, ["ggx"], client=client, test_fraction=1.5))
+    assert err.value.field == "test_fraction"
+    with pytest.raises(brdffit.FitError) as err:
         list(fit_many(FILES, ["ggx"], workers=0))
     assert err.value.field == "workers"
 

@@ -122,7 +122,16 @@ def sources_of(sources) -> list:
     return out
 
 
-def _check_options(fit_options: dict) -> None:
+def _check(uncertainty, test_fraction, fit_options: dict) -> None:
+    if not isinstance(uncertainty, bool):
+        raise FitError(f"uncertainty={uncertainty!r} must be True or False", "uncertainty")
+    if test_fraction is not None and (
+        isinstance(test_fraction, bool)
+        or not isinstance(test_fraction, (int, float))
+        or not 0 < test_fraction <= 0.9
+    ):
+        raise FitError(f"test_fraction={test_fraction!r} must be None or in (0, 0.9]",
+                       "test_fraction")  # fmt: skip
     known = set(inspect.signature(brdffit.fit).parameters) - _NOT_OPTIONS
     for name in fit_options:
         if name not in known:
@@ -192,9 +201,7 @@ def fit_many(
         (unreadable file, a fit error, a worker lost too often) is a row with
         its ``error``; the rest go on.
     """
-    if not isinstance(uncertainty, bool):
-        raise FitError(f"uncertainty={uncertainty!r} must be True or False", "uncertainty")
-    _check_options(fit_options)
+    _check(uncertainty, test_fraction, fit_options)
     names, pairs = _models(models), sources_of(sources)
     done = {(str(s), str(m)) for s, m in skip}
     todo = [(lab, src, m) for lab, src in pairs for m in names if (lab, m) not in done]
