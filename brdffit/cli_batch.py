@@ -103,7 +103,10 @@ class _Progress:
 
     def __init__(self, client, total: int, tty: bool):
         self.client, self.total, self.tty = client, total, tty
-        self.done = self.failed = self.running = 0
+        self.done = self.failed = 0
+        # Every worker thread is busy while pairs wait; the ticker asks the scheduler.
+        self.slots = sum(client.nthreads().values()) if tty else 0
+        self.running = min(self.slots, total)
         self.t0 = time.monotonic()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._tick, daemon=True) if tty else None
@@ -113,7 +116,9 @@ class _Progress:
     def _tick(self):
         while not self._stop.wait(1.0):
             try:
-                self.running = sum(len(k) for k in self.client.processing().values())
+                # processing() also lists pairs waiting on a worker: one runs per thread.
+                busy = self.client.processing().values()
+                self.running = min(sum(len(k) for k in busy), self.slots)
             except Exception:  # the scheduler went away; the main loop will say why
                 pass
             self.draw()
@@ -121,7 +126,7 @@ class _Progress:
     def add(self, row: BatchRow) -> None:
         self.done += 1
         self.failed += not row.ok
-        self.running = max(0, min(self.running, self.total - self.done))
+        self.running = min(self.slots, self.total - self.done)
         self.draw()
 
     def line(self) -> str:
