@@ -105,7 +105,8 @@ class _Progress:
         self.client, self.total, self.tty = client, total, tty
         self.done = self.failed = 0
         # Every worker thread is busy while pairs wait; the ticker asks the scheduler.
-        self.slots = sum(client.nthreads().values()) if tty else 0
+        self.threads = client.nthreads() if tty else {}
+        self.slots = sum(self.threads.values())
         self.running = min(self.slots, total)
         self.t0 = time.monotonic()
         self._stop = threading.Event()
@@ -117,8 +118,8 @@ class _Progress:
         while not self._stop.wait(1.0):
             try:
                 # processing() also lists pairs waiting on a worker: one runs per thread.
-                busy = self.client.processing().values()
-                self.running = min(sum(len(k) for k in busy), self.slots)
+                busy = self.client.processing().items()
+                self.running = sum(min(len(k), self.threads.get(w, 1)) for w, k in busy)
             except Exception:  # the scheduler went away; the main loop will say why
                 pass
             self.draw()
