@@ -69,15 +69,22 @@ class _DaskExecutor(Executor):
 
     def __init__(self, client):
         self._inner = client.get_executor(pure=False)
+        self._closed = False
 
     def submit(self, fn, /, *args, **kwargs):
+        if self._closed:
+            raise RuntimeError("cannot submit jobs after shutdown")
         if fn is run_job:
             fn = run_job_on_dask
             args = (os.path.abspath(args[0]), *args[1:])  # workers may have another cwd
         return self._inner.submit(fn, *args, **kwargs)
 
     def shutdown(self, wait=True, *, cancel_futures=False):
-        self._inner.shutdown(wait=wait and not cancel_futures)
+        # No call into the client here: JobRunner stops its executor holding its
+        # lock, and the futures' callbacks take that lock on the client's event
+        # loop, so waiting on that loop would deadlock. DaskJobRunner.close()
+        # closes the client next, which releases (cancels) what is left.
+        self._closed = True
 
 
 class DaskJobRunner(JobRunner):
