@@ -104,7 +104,7 @@ class BatchRow:
 
 
 def _result_from_dict(d: dict):
-    from brdffit.result import FitResult  # the one non-public import of brdffit.batch
+    from brdffit.result import FitResult  # not public: moves with the layout work
 
     def number(v):
         return float("nan") if v is None else v

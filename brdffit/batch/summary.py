@@ -86,7 +86,7 @@ def write_report(path, rows, read=None, title: str = "brdffit batch") -> Path:
     plotted is named in the report instead of its plot.
     """
     import brdffit
-    from brdffit.plot_fit import plot_fit
+    from brdffit.plot_fit import plot_fit  # not public: moves with the layout work
 
     read = read or brdffit.read
     path = Path(path)
