@@ -1,0 +1,111 @@
+"""Models bound to their compiled loops.
+
+:class:`CompiledDesign` replaces a model's design function: it returns the same
+:class:`~brdffit.models.base.Design` as the numpy function it wraps, its columns
+computed by a compiled loop, and it offers :meth:`CompiledDesign.evaluate`, the
+whole BRDF in one pass, which :meth:`brdffit.models.Model.evaluate_prepared` uses.
+When the kernels are switched off (:func:`brdffit.kernels.use`) or numba is not
+installed, both fall back to the numpy design (``reference``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from ..models.base import INV_PI, Design
+from . import inputs
+
+__all__ = ["CompiledDesign", "SPECS"]
+
+
+def _loops():
+    from . import loops  # numba compiles (or loads its cache) on the first call only
+
+    return loops
+
+
+class _Lobe:
+    """``kd/pi + ks lobe``: a loop of :mod:`~brdffit.kernels.loops`, its inputs and
+    the shape parameters it takes, transformed (``alpha -> alpha^2``)."""
+
+    def __init__(self, loop: str, prepare: Callable, shape: Callable):
+        self.loop, self.prepare, self.shape = loop, prepare, shape
+
+    def run(self, geometry, shape: Mapping, a: float, b: float) -> np.ndarray:
+        loops = _loops()
+        extra = (loops.SMITH_TABLE,) if self.loop == "beckmann" else ()
+        out = np.empty(geometry.m)
+        return getattr(loops, self.loop)(
+            *self.prepare(geometry), *self.shape(shape), a, b, *extra, out
+        )
+
+    def design(self, geometry, shape: Mapping) -> Design:
+        return Design((INV_PI, self.run(geometry, shape, 1.0, 0.0)))
+
+    def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray:
+        kd, ks = (float(c) for c in coefs)
+        return self.run(geometry, shape, ks, kd * INV_PI)
+
+
+class _AshikhminShirley:
+    """Columns ``(diffuse, S (1 - w))`` and offset ``S w``; see the model's doc."""
+
+    def design(self, geometry, shape: Mapping) -> Design:
+        log_t, log_b, scale, weight, diffuse = inputs.ashikhmin_shirley_inputs(geometry)
+        column, offset = np.empty(geometry.m), np.empty(geometry.m)
+        _loops().ashikhmin_shirley_columns(
+            log_t, log_b, scale, weight, float(shape["nu"]), float(shape["nv"]), column, offset
+        )
+        return Design(columns=(diffuse, column), offset=offset)
+
+    def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray:
+        rd_eff, rs = (float(c) for c in coefs)
+        terms = inputs.ashikhmin_shirley_inputs(geometry)
+        nu, nv = float(shape["nu"]), float(shape["nv"])
+        return _loops().ashikhmin_shirley(*terms, nu, nv, rd_eff, rs, np.empty(geometry.m))
+
+
+def _alpha2(name: str, second: str | None = None) -> Callable:
+    if second is None:
+        return lambda s: (float(s[name]) ** 2,)
+    return lambda s: (float(s[name]) ** 2, float(s[second]))
+
+
+#: Model name -> its compiled form.
+SPECS = {
+    "ggx": _Lobe("ggx", inputs.microfacet_inputs, _alpha2("alpha", "f0")),
+    "beckmann": _Lobe("beckmann", inputs.microfacet_inputs, _alpha2("alpha", "f0")),
+    "ward": _Lobe("ward", inputs.ward_inputs, _alpha2("alpha")),
+    "cook_torrance": _Lobe("cook_torrance", inputs.cook_torrance_inputs, _alpha2("m", "eta")),
+    "blinn": _Lobe("blinn", inputs.blinn_inputs, lambda s: (float(s["n"]),)),
+    "ward_anisotropic": _Lobe(
+        "ward_anisotropic",
+        inputs.ward_anisotropic_inputs,
+        lambda s: (float(s["alpha_x"]), float(s["alpha_y"])),
+    ),
+    "ashikhmin_shirley": _AshikhminShirley(),
+}
+
+
+class CompiledDesign:
+    """A model's design function computed by its compiled loop when the kernels are
+    on, else by ``reference`` (the numpy design function it replaces)."""
+
+    def __init__(self, reference: Callable, compiled, enabled: Callable[[], bool]):
+        self.reference, self.compiled, self._enabled = reference, compiled, enabled
+        self.__doc__ = getattr(reference, "__doc__", None)
+
+    def __call__(self, geometry, shape: Mapping) -> Design:
+        if self._enabled() and geometry.m:
+            return self.compiled.design(geometry, shape)
+        return self.reference(geometry, shape)
+
+    def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray | None:
+        """The BRDF on the valid pairs in one compiled pass, or None when the kernels
+        are off or a coefficient is given per channel (then the caller combines the
+        design's columns)."""
+        if not (self._enabled() and geometry.m) or any(np.ndim(c) for c in coefs):
+            return None
+        return self.compiled.evaluate(geometry, shape, coefs)
