@@ -76,7 +76,7 @@ def _alpha2(name: str, second: str | None = None) -> Callable:
 #: Model name -> its compiled form.
 SPECS = {
     "ggx": _Lobe("ggx", inputs.microfacet_inputs, _alpha2("alpha", "f0")),
-    "beckmann": _Lobe("beckmann", inputs.microfacet_inputs, _alpha2("alpha", "f0")),
+    "beckmann": _Lobe("beckmann", inputs.beckmann_inputs, _alpha2("alpha", "f0")),
     "ward": _Lobe("ward", inputs.ward_inputs, _alpha2("alpha")),
     "cook_torrance": _Lobe("cook_torrance", inputs.cook_torrance_inputs, _alpha2("m", "eta")),
     "blinn": _Lobe("blinn", inputs.blinn_inputs, lambda s: (float(s["n"]),)),

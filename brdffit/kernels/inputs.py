@@ -19,6 +19,7 @@ from ..data.geometry import MIN_COSINE, Geometry
 
 __all__ = [
     "ashikhmin_shirley_inputs",
+    "beckmann_inputs",
     "blinn_inputs",
     "cook_torrance_inputs",
     "microfacet_inputs",
@@ -43,8 +44,8 @@ def _ward_factor(g: Geometry) -> np.ndarray:
 
 
 def microfacet_inputs(g: Geometry) -> tuple:
-    """GGX and Beckmann with Smith shadowing: ``tan^2 theta_h``, ``tan^2`` of L and
-    of V, ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's ``(1 - V.H)^5``."""
+    """GGX with Smith shadowing: ``tan^2 theta_h``, ``tan^2`` of L and of V,
+    ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's ``(1 - V.H)^5``."""
 
     def compute():
         c2 = g.cos_h * g.cos_h
@@ -55,13 +56,24 @@ def microfacet_inputs(g: Geometry) -> tuple:
     return g.cached("kernels.microfacet", compute)
 
 
+def beckmann_inputs(g: Geometry) -> tuple:
+    """As :func:`microfacet_inputs`, with the logarithm of the factor (it is added to
+    the exponent of Beckmann's ``D``)."""
+
+    def compute():
+        tan2_h, tan2_i, tan2_o, factor, weight = microfacet_inputs(g)
+        return tan2_h, tan2_i, tan2_o, np.log(factor), weight
+
+    return g.cached("kernels.beckmann", compute)
+
+
 def ward_inputs(g: Geometry) -> tuple:
-    """Ward: ``tan^2 theta_h`` and ``1 / (4 pi sqrt((N.L)(N.V)))``."""
-    return g.cached("kernels.ward", lambda: (g.tan2_h, _ward_factor(g)))
+    """Ward: ``tan^2 theta_h`` and ``ln(1 / (4 pi sqrt((N.L)(N.V))))``."""
+    return g.cached("kernels.ward", lambda: (g.tan2_h, np.log(_ward_factor(g))))
 
 
 def cook_torrance_inputs(g: Geometry) -> tuple:
-    """Cook-Torrance: ``tan^2 theta_h``, ``G / (4 pi (N.L)(N.V) (N.H)^4)`` with the
+    """Cook-Torrance: ``tan^2 theta_h``, ``ln(G / (4 pi (N.L)(N.V) (N.H)^4))`` with the
     V-cavity ``G = min(1, 2 (N.H) min(N.L, N.V) / (V.H))`` and ``V.H``."""
 
     def compute():
@@ -70,7 +82,7 @@ def cook_torrance_inputs(g: Geometry) -> tuple:
             1.0, 2.0 * g.cos_h / np.maximum(g.cos_d, 1e-300) * np.minimum(g.cos_i, g.cos_o)
         )
         factor = shadowing / (4.0 * g.cos_i * g.cos_o) * (1.0 / (math.pi * c2 * c2))
-        return g.tan2_h, factor, np.maximum(g.cos_d, 1e-300)
+        return g.tan2_h, np.log(factor), np.maximum(g.cos_d, 1e-300)
 
     return g.cached("kernels.cook_torrance", compute)
 
@@ -81,19 +93,20 @@ def blinn_inputs(g: Geometry) -> tuple:
 
 
 def ward_anisotropic_inputs(g: Geometry) -> tuple:
-    """Anisotropic Ward: ``(H.T / N.H)^2``, ``(H.B / N.H)^2`` and Ward's factor."""
+    """Anisotropic Ward: ``(H.T / N.H)^2``, ``(H.B / N.H)^2`` and the logarithm of
+    Ward's factor."""
 
     def compute():
         inv_c2 = 1.0 / (g.cos_h * g.cos_h)
         h = g.half
-        return h[:, 0] ** 2 * inv_c2, h[:, 1] ** 2 * inv_c2, _ward_factor(g)
+        return h[:, 0] ** 2 * inv_c2, h[:, 1] ** 2 * inv_c2, np.log(_ward_factor(g))
 
     return g.cached("kernels.ward_anisotropic", compute)
 
 
 def ashikhmin_shirley_inputs(g: Geometry) -> tuple:
     """Ashikhmin-Shirley: ``cos^2(phi_h) ln(N.H)``, ``sin^2(phi_h) ln(N.H)``,
-    ``1 / (8 pi (V.H) max(N.L, N.V))``, ``(1 - V.H)^5`` and the diffuse column
+    ``ln(1 / (8 pi (V.H) max(N.L, N.V)))``, ``(1 - V.H)^5`` and the diffuse column
     ``28/(23 pi) (1 - (1 - N.L/2)^5)(1 - (1 - N.V/2)^5)``."""
 
     def compute():
@@ -103,6 +116,7 @@ def ashikhmin_shirley_inputs(g: Geometry) -> tuple:
         diffuse = (1.0 - _pow5(1.0 - 0.5 * g.cos_i)) * (1.0 - _pow5(1.0 - 0.5 * g.cos_o))
         diffuse *= 28.0 / (23.0 * math.pi)
         along_t = g.cos2_phi_h * log_c
-        return along_t, g.sin2_phi_h * log_c, scale, _pow5(1.0 - g.cos_d), diffuse
+        weight = _pow5(1.0 - g.cos_d)
+        return along_t, g.sin2_phi_h * log_c, np.log(scale), weight, diffuse
 
     return g.cached("kernels.ashikhmin_shirley", compute)

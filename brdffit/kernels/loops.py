@@ -3,8 +3,12 @@
 Each loop reads the parameter-free inputs of :mod:`brdffit.kernels.inputs` and
 writes ``out[i] = b + a * lobe_i``: with ``a = 1, b = 0`` the lobe column of the
 variable projection, with ``a = ks, b = kd / pi`` the BRDF itself, without a
-temporary array. The formulas are those of the numpy models (MODELS.md), whose
-docstrings cite the primary sources:
+temporary array. Where a lobe has an exponential, its positive factors (the
+geometry's, as a cached logarithm, and the parameters' scale) are added to the
+exponent: :func:`~brdffit.kernels._compile.fast_exp` flushes results under 3.3e-308
+to 0, and a tiny exponential times a large factor (``1/((N.L)(N.V))`` reaches 1e20
+at grazing angles) would otherwise lose a value that numpy keeps. The formulas are
+those of the numpy models (MODELS.md), whose docstrings cite the primary sources:
 
 - GGX ``D`` and Smith ``G1`` (Walter, Marschner, Li and Torrance, Microfacet
   models for refraction through rough surfaces, EGSR 2007, eqs. 33-34), Beckmann
@@ -22,7 +26,7 @@ import math
 
 import numba
 
-from ._compile import fast_exp, jit
+from ._compile import FLAGS, fast_exp, jit
 from .smith import A_MAX, WIDTH
 from .smith import table as smith_table
 
@@ -44,7 +48,7 @@ def ggx(tan2_h, tan2_i, tan2_o, factor, weight, alpha2, f0, a, b, out):
     return out
 
 
-@numba.njit(inline="always", fastmath=True)
+@numba.njit(inline="always", fastmath=FLAGS)
 def beckmann_g1(t, coefficients):
     """Exact Smith masking of Beckmann for ``t = alpha^2 tan^2``, ``a = 1/sqrt(t)``:
     1 for ``a >= 6`` (``Lambda < 3e-18``), else ``a q(a)`` from the polynomial table
@@ -67,86 +71,111 @@ def beckmann_g1(t, coefficients):
 
 
 @jit
-def beckmann(tan2_h, tan2_i, tan2_o, factor, weight, alpha2, f0, a, b, coefficients, out):
-    """Beckmann ``D`` with its exact Smith ``G1`` and Schlick's F."""
+def beckmann(tan2_h, tan2_i, tan2_o, log_factor, weight, alpha2, f0, a, b, coefficients, out):
+    """Beckmann ``D`` with its exact Smith ``G1`` and Schlick's F. ``log_factor`` is
+    ``ln(1 / (4 (N.L)(N.V) (N.H)^4))``, added to the exponent of ``D``."""
+    if a <= 0.0:
+        out[:] = b
+        return out
     inv_a2 = 1.0 / alpha2
-    scale = a * _INV_PI * inv_a2
+    log_scale = math.log(a * _INV_PI * inv_a2)
     for i in range(out.shape[0]):
         fresnel = f0 + (1.0 - f0) * weight[i]
         g = beckmann_g1(alpha2 * tan2_i[i], coefficients) * beckmann_g1(
             alpha2 * tan2_o[i], coefficients
         )
-        out[i] = b + scale * factor[i] * fresnel * g * fast_exp(-tan2_h[i] * inv_a2)
+        lobe = fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_a2)
+        out[i] = b + fresnel * g * lobe
     return out
 
 
 @jit
-def ward(tan2_h, factor, alpha2, a, b, out):
-    """``exp(-tan^2/alpha^2) / (4 pi alpha^2 sqrt((N.L)(N.V)))``."""
+def ward(tan2_h, log_factor, alpha2, a, b, out):
+    """``exp(-tan^2/alpha^2) / (4 pi alpha^2 sqrt((N.L)(N.V)))``; ``log_factor`` is
+    ``ln(1 / (4 pi sqrt((N.L)(N.V))))``."""
+    if a <= 0.0:
+        out[:] = b
+        return out
     inv_a2 = 1.0 / alpha2
-    scale = a * inv_a2
+    log_scale = math.log(a * inv_a2)
     for i in range(out.shape[0]):
-        out[i] = b + scale * factor[i] * fast_exp(-tan2_h[i] * inv_a2)
+        out[i] = b + fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_a2)
     return out
 
 
 @jit
-def cook_torrance(tan2_h, factor, cos_d, m2, eta, a, b, out):
-    """Beckmann ``D``, V-cavity ``G`` and the exact dielectric Fresnel factor
-    ``(Rs + Rp) / 2`` with ``x = g / c``, ``Rs = (2/(1+x) - 1)^2``,
-    ``Rp = (2 eta^2/(eta^2+x) - 1)^2``, ``g = sqrt(max(0, eta^2 - 1 + c^2))``."""
+def cook_torrance(tan2_h, log_factor, cos_d, m2, eta, a, b, out):
+    """Beckmann ``D``, V-cavity ``G`` (in ``log_factor``, the logarithm of
+    ``G / (4 pi (N.L)(N.V) (N.H)^4)``) and the exact dielectric Fresnel factor
+    ``(Rs + Rp) / 2`` with ``g = sqrt(max(0, eta^2 - 1 + c^2))``,
+    ``Rs = ((c - g)/(c + g))^2`` and ``Rp = ((eta^2 c - g)/(eta^2 c + g))^2``
+    (:func:`brdffit.models.shared.fresnel_dielectric`), over one common denominator:
+    one division per pair instead of three."""
+    if a <= 0.0:
+        out[:] = b
+        return out
     inv_m2 = 1.0 / m2
     e2 = eta * eta
-    scale = a * inv_m2
+    log_scale = math.log(0.5 * a * inv_m2)
     for i in range(out.shape[0]):
         c = cos_d[i]
-        x = math.sqrt(max(c * c + (e2 - 1.0), 0.0)) / c
-        rs = 2.0 / (1.0 + x) - 1.0
-        rp = 2.0 * e2 / (e2 + x) - 1.0
-        fresnel = 0.5 * (rs * rs + rp * rp)
-        out[i] = b + scale * factor[i] * fresnel * fast_exp(-tan2_h[i] * inv_m2)
+        g = math.sqrt(max(c * c + (e2 - 1.0), 0.0))
+        s_num, s_den = (c - g) * (e2 * c + g), (c + g) * (e2 * c + g)
+        p_num = (e2 * c - g) * (c + g)
+        den = s_den * s_den  # > 0: V.H >= (N.L + N.V)/2 > 0 for valid pairs
+        fresnel = (s_num * s_num + p_num * p_num) / den if den > 0.0 else 2.0
+        out[i] = b + fresnel * fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_m2)
     return out
 
 
 @jit
 def blinn(log_cos_h, n, a, b, out):
     """``(N.H)^n = exp(n ln(N.H))``."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a)
     for i in range(out.shape[0]):
-        out[i] = b + a * fast_exp(n * log_cos_h[i])
+        out[i] = b + fast_exp(n * log_cos_h[i] + log_a)
     return out
 
 
 @jit
-def ward_anisotropic(tan2_t, tan2_b, factor, alpha_x, alpha_y, a, b, out):
+def ward_anisotropic(tan2_t, tan2_b, log_factor, alpha_x, alpha_y, a, b, out):
     """``exp(-(tan2_t/alpha_x^2 + tan2_b/alpha_y^2)) / (4 pi alpha_x alpha_y
-    sqrt((N.L)(N.V)))``."""
+    sqrt((N.L)(N.V)))``; ``log_factor`` as in :func:`ward`."""
+    if a <= 0.0:
+        out[:] = b
+        return out
     inv_x2 = 1.0 / (alpha_x * alpha_x)
     inv_y2 = 1.0 / (alpha_y * alpha_y)
-    scale = a / (alpha_x * alpha_y)
+    log_scale = math.log(a / (alpha_x * alpha_y))
     for i in range(out.shape[0]):
-        out[i] = b + scale * factor[i] * fast_exp(-(tan2_t[i] * inv_x2 + tan2_b[i] * inv_y2))
+        exponent = log_scale + log_factor[i] - (tan2_t[i] * inv_x2 + tan2_b[i] * inv_y2)
+        out[i] = b + fast_exp(exponent)
     return out
 
 
 @jit
-def ashikhmin_shirley_columns(log_t, log_b, scale, weight, nu, nv, column, offset):
+def ashikhmin_shirley_columns(log_t, log_b, log_scale, weight, nu, nv, column, offset):
     """Ashikhmin-Shirley's specular column ``S (1 - w)`` and offset ``S w`` with
     ``S = sqrt((nu+1)(nv+1)) (N.H)^(nu cos^2 phi_h + nv sin^2 phi_h) / (8 pi (V.H)
-    max(N.L, N.V))`` and ``w = (1 - V.H)^5``."""
-    norm = math.sqrt((nu + 1.0) * (nv + 1.0))
+    max(N.L, N.V))`` (``log_scale`` the logarithm of the last factor) and
+    ``w = (1 - V.H)^5``."""
+    log_norm = 0.5 * math.log((nu + 1.0) * (nv + 1.0))
     for i in range(column.shape[0]):
-        s = norm * scale[i] * fast_exp(nu * log_t[i] + nv * log_b[i])
+        s = fast_exp(log_norm + log_scale[i] + nu * log_t[i] + nv * log_b[i])
         offset[i] = s * weight[i]
         column[i] = s * (1.0 - weight[i])
     return column, offset
 
 
 @jit
-def ashikhmin_shirley(log_t, log_b, scale, weight, diffuse, nu, nv, rd_eff, rs, out):
+def ashikhmin_shirley(log_t, log_b, log_scale, weight, diffuse, nu, nv, rd_eff, rs, out):
     """The whole BRDF ``rd_eff D + S (rs + (1 - rs) w)`` (``D`` the diffuse column)."""
-    norm = math.sqrt((nu + 1.0) * (nv + 1.0))
+    log_norm = 0.5 * math.log((nu + 1.0) * (nv + 1.0))
     for i in range(out.shape[0]):
-        s = norm * scale[i] * fast_exp(nu * log_t[i] + nv * log_b[i])
+        s = fast_exp(log_norm + log_scale[i] + nu * log_t[i] + nv * log_b[i])
         out[i] = rd_eff * diffuse[i] + s * (rs + (1.0 - rs) * weight[i])
     return out
 
