@@ -5,6 +5,7 @@ from __future__ import annotations
 import difflib
 
 from ..errors import ModelError
+from ..kernels import install as install_kernels
 from . import anisotropic, empirical, microfacet, renderers, wave
 from .base import Classification, Design, Model, Param
 
@@ -20,6 +21,9 @@ REGISTRY: dict[str, Model] = {
         *wave.MODELS,
     )
 }
+
+# The common models evaluate through compiled loops when numba is installed.
+install_kernels(REGISTRY)
 
 _AXES = ("origin", "symmetry", "operand", "highlight", "wave_optics")
 
