@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from ._compile import FLAGS, fast_exp, jit
 from .smith import A_MAX, WIDTH
@@ -182,3 +183,29 @@ def ashikhmin_shirley(log_t, log_b, log_scale, weight, diffuse, nu, nv, rd_eff, 
 
 #: Beckmann's Smith masking over a = 1/(alpha tan theta), see brdffit.kernels.smith.
 SMITH_TABLE = smith_table().ravel()
+
+
+@numba.njit(cache=True, fastmath=True, error_model="numpy")
+def moments(lobe, w, wy_t):
+    """``(S1, S2)`` and ``T1`` (C,) of :mod:`brdffit.kernels.normal`, ``w`` empty for
+    unit weights, ``wy_t`` the weighted targets channel by channel (C, M).
+    Reassociation is allowed here (``fastmath=True``): it lets LLVM vectorise the
+    sums, which only changes their rounding."""
+    c, m = wy_t.shape
+    s1 = s2 = 0.0
+    if w.shape[0] == 0:
+        for i in range(m):
+            s1 += lobe[i]
+            s2 += lobe[i] * lobe[i]
+    else:
+        for i in range(m):
+            s1 += w[i] * lobe[i]
+            s2 += w[i] * lobe[i] * lobe[i]
+    t1 = np.zeros(c)
+    for j in range(c):
+        total = 0.0
+        row = wy_t[j]
+        for i in range(m):
+            total += row[i] * lobe[i]
+        t1[j] = total
+    return s1, s2, t1
