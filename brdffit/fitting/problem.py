@@ -289,7 +289,7 @@ class Problem:
         """The normal equations in one compiled pass over the columns, without stacking
         them (:mod:`brdffit.kernels.normal`), where that applies (a quadratic loss, no
         offset, one array column); else None."""
-        if offset is not None or self._weighted is None or not kernels.enabled():
+        if offset is not None or self._weighted is None or not kernels.wanted(self.geometry.m):
             return None
         return kernels_normal.normal_equations(
             free, self.z_lin, self.w_lin, self._weighted, Normal

@@ -4,8 +4,9 @@
 :class:`~brdffit.models.base.Design` as the numpy function it wraps, its columns
 computed by a compiled loop, and it offers :meth:`CompiledDesign.evaluate`, the
 whole BRDF in one pass, which :meth:`brdffit.models.Model.evaluate_prepared` uses.
-When the kernels are switched off (:func:`brdffit.kernels.use`) or numba is not
-installed, both fall back to the numpy design (``reference``).
+When the kernels are not wanted for the geometry (:func:`brdffit.kernels.wanted`:
+switched off, too few pairs, or numba not installed), both fall back to the numpy
+design (``reference``).
 """
 
 from __future__ import annotations
@@ -91,14 +92,14 @@ SPECS = {
 
 class CompiledDesign:
     """A model's design function computed by its compiled loop when the kernels are
-    on, else by ``reference`` (the numpy design function it replaces)."""
+    wanted for the geometry, else by ``reference`` (the numpy design it replaces)."""
 
-    def __init__(self, reference: Callable, compiled, enabled: Callable[[], bool]):
-        self.reference, self.compiled, self._enabled = reference, compiled, enabled
+    def __init__(self, reference: Callable, compiled, wanted: Callable[[int], bool]):
+        self.reference, self.compiled, self._wanted = reference, compiled, wanted
         self.__doc__ = getattr(reference, "__doc__", None)
 
     def __call__(self, geometry, shape: Mapping) -> Design:
-        if self._enabled() and geometry.m:
+        if self._wanted(geometry.m):
             return self.compiled.design(geometry, shape)
         return self.reference(geometry, shape)
 
@@ -106,6 +107,6 @@ class CompiledDesign:
         """The BRDF on the valid pairs in one compiled pass, or None when the kernels
         are off or a coefficient is given per channel (then the caller combines the
         design's columns)."""
-        if not (self._enabled() and geometry.m) or any(np.ndim(c) for c in coefs):
+        if not self._wanted(geometry.m) or any(np.ndim(c) for c in coefs):
             return None
         return self.compiled.evaluate(geometry, shape, coefs)

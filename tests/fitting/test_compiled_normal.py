@@ -15,6 +15,13 @@ pytestmark = pytest.mark.skipif(
 )
 
 
+@pytest.fixture(autouse=True)
+def compiled_for_every_size():
+    """By default the kernels run from kernels.MIN_PAIRS pairs; these tests use fewer."""
+    with kernels.use(True):
+        yield
+
+
 def _data(model: str, n: int, seed: int):
     """Three channels: the model's defaults with its linear parameters per channel."""
     from brdffit.models import get_model

@@ -25,6 +25,14 @@ pytestmark = pytest.mark.skipif(
     not kernels.available(), reason="numba is not installed: no compiled kernels to test"
 )
 
+
+@pytest.fixture(autouse=True)
+def compiled_for_every_size():
+    """By default the kernels run from kernels.MIN_PAIRS pairs; these tests use fewer."""
+    with kernels.use(True):
+        yield
+
+
 #: fast_exp flushes results below exp(-708) to 0 (see its docstring).
 FLUSH = math.exp(-708.0)
 
@@ -126,5 +134,7 @@ def test_the_environment_switches_the_kernels_off():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert out.stdout.strip() == "False", out.stderr
     with kernels.use(False):
-        assert not kernels.enabled()
-    assert kernels.enabled()
+        assert not kernels.enabled() and not kernels.wanted(10**6)
+    with kernels.use(None):
+        assert kernels.enabled() and kernels.wanted(kernels.MIN_PAIRS)
+        assert not kernels.wanted(kernels.MIN_PAIRS - 1)
