@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import importlib.util
 import os
+import warnings
 
 __all__ = ["COMPILED_MODELS", "MIN_PAIRS", "available", "enabled", "install", "use", "wanted"]
 
@@ -53,7 +54,26 @@ def wanted(pairs: int) -> bool:
     """Whether to use the compiled kernels on a geometry of ``pairs`` valid pairs."""
     if not (_AVAILABLE and pairs > 0) or _state["on"] is False:
         return False
-    return _state["on"] is True or pairs >= MIN_PAIRS
+    return (_state["on"] is True or pairs >= MIN_PAIRS) and _loaded()
+
+
+def _loaded() -> bool:
+    """Import the loops (and numba) once; if that fails (a numba that does not support
+    the installed numpy, say), warn once and run the numpy formulas from then on."""
+    if "loaded" not in _state:
+        try:
+            from . import loops  # noqa: F401
+        except Exception as exc:  # ImportError, or numba's own errors on import
+            warnings.warn(
+                f"brdffit's compiled kernels are off: importing them failed ({exc}); "
+                "the numpy formulas run instead",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            _state["loaded"] = False
+        else:
+            _state["loaded"] = True
+    return _state["loaded"]
 
 
 @contextlib.contextmanager

@@ -138,3 +138,19 @@ def test_the_environment_switches_the_kernels_off():
     with kernels.use(None):
         assert kernels.enabled() and kernels.wanted(kernels.MIN_PAIRS)
         assert not kernels.wanted(kernels.MIN_PAIRS - 1)
+
+
+def test_a_numba_that_fails_to_import_leaves_the_numpy_formulas(monkeypatch):
+    """A broken numba (one that does not support the installed numpy, say) warns once
+    and the models evaluate as without it."""
+    model = get_model("ggx")
+    wi, wo = hemisphere_pairs(200, seed=4)
+    with kernels.use(False):
+        expected = model.evaluate(wi, wo, model.defaults())
+    monkeypatch.delitem(kernels._state, "loaded", raising=False)
+    monkeypatch.delattr(kernels, "loops", raising=False)
+    monkeypatch.setitem(sys.modules, "brdffit.kernels.loops", None)  # import fails
+    with pytest.warns(RuntimeWarning, match="compiled kernels are off"):
+        assert not kernels.wanted(10**6)
+    assert not kernels.wanted(10**6)  # once: no second warning, still off
+    np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
