@@ -202,10 +202,20 @@ def moments(lobe, w, wy_t):
             s1 += w[i] * lobe[i]
             s2 += w[i] * lobe[i] * lobe[i]
     t1 = np.zeros(c)
-    for j in range(c):
+    j = 0
+    while j + 3 <= c:  # three channels per pass over the lobe (RGB data: one pass)
+        a = b = d = 0.0
+        r0, r1, r2 = wy_t[j], wy_t[j + 1], wy_t[j + 2]
+        for i in range(m):
+            a += r0[i] * lobe[i]
+            b += r1[i] * lobe[i]
+            d += r2[i] * lobe[i]
+        t1[j], t1[j + 1], t1[j + 2] = a, b, d
+        j += 3
+    for k in range(j, c):
         total = 0.0
-        row = wy_t[j]
+        row = wy_t[k]
         for i in range(m):
             total += row[i] * lobe[i]
-        t1[j] = total
+        t1[k] = total
     return s1, s2, t1
