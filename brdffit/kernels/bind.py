@@ -68,6 +68,14 @@ class _AshikhminShirley:
         return _loops().ashikhmin_shirley(*terms, nu, nv, rd_eff, rs, np.empty(geometry.m))
 
 
+def _stack_rows(parts: list):
+    """One design part over the rows of a batch: the part itself when every row has
+    the same object (a constant, a cached column), else the rows stacked (W, M)."""
+    if all(part is parts[0] for part in parts):
+        return parts[0]
+    return np.stack(parts)
+
+
 def _alpha2(name: str, second: str | None = None) -> Callable:
     if second is None:
         return lambda s: (float(s[name]) ** 2,)
@@ -99,9 +107,35 @@ class CompiledDesign:
         self.__doc__ = getattr(reference, "__doc__", None)
 
     def __call__(self, geometry, shape: Mapping) -> Design:
-        if self._wanted(geometry.m):
+        if not self._wanted(geometry.m):
+            return self.reference(geometry, shape)
+        if all(np.ndim(value) == 0 for value in shape.values()):
             return self.compiled.design(geometry, shape)
-        return self.reference(geometry, shape)
+        return self._batched(geometry, shape)
+
+    def _batched(self, geometry, shape: Mapping) -> Design:
+        """Shape parameters of shape (W, 1), one row per walker of the posterior
+        sampler: the compiled design of each row, array columns stacked to (W, M)
+        (columns the same for every row, such as a constant, stay as they are).
+        Other shapes go to the numpy design, which broadcasts them."""
+        arrays = {k: np.asarray(v, dtype=float) for k, v in shape.items()}
+        try:
+            common = np.broadcast_shapes(*(a.shape for a in arrays.values()))
+        except ValueError:
+            return self.reference(geometry, shape)
+        if len(common) != 2 or common[1] != 1:
+            return self.reference(geometry, shape)
+        rows = [
+            self.compiled.design(
+                geometry, {k: float(np.broadcast_to(a, common)[w, 0]) for k, a in arrays.items()}
+            )
+            for w in range(common[0])
+        ]
+        columns = tuple(
+            _stack_rows([r.columns[j] for r in rows]) for j in range(len(rows[0].columns))
+        )
+        offset = None if rows[0].offset is None else _stack_rows([r.offset for r in rows])
+        return Design(columns, offset)
 
     def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray | None:
         """The BRDF on the valid pairs in one compiled pass, or None when the kernels

@@ -154,3 +154,23 @@ def test_a_numba_that_fails_to_import_leaves_the_numpy_formulas(monkeypatch):
         assert not kernels.wanted(10**6)
     assert not kernels.wanted(10**6)  # once: no second warning, still off
     np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
+
+
+@pytest.mark.parametrize("name", kernels.COMPILED_MODELS)
+def test_a_batch_of_shapes_gives_each_rows_design(name):
+    """The posterior sampler asks for the designs of all walkers at once, shape
+    parameters of shape (W, 1): row w of each column is the design at row w."""
+    model = get_model(name)
+    wi, wo = hemisphere_pairs(300, seed=6)
+    geometry = Geometry(wi, wo)
+    rng = np.random.default_rng(stable_seed(name))
+    rows = [random_params(model, rng) for _ in range(4)]
+    names = [p.name for p in model.shape_params]
+    batch = {k: np.array([[r[k]] for r in rows]) for k in names}
+    design = model.design(geometry, batch)
+    for w, row in enumerate(rows):
+        with kernels.use(False):
+            expected = model.design(geometry, {k: row[k] for k in names})
+        for got, want in zip(design.columns, expected.columns):
+            got = got[w] if np.ndim(got) == 2 else got
+            assert _relative(got, want) < 1e-11
