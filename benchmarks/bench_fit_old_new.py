@@ -40,7 +40,7 @@ def worker(fits: int) -> None:
             result = brdffit.fit(case.data, case.model)
             times.append(time.process_time() - start)
         ok = recovered(case, result.params) if case.truth is not None else None
-        row = {"case": case.name, "cpu": statistics.median(times), "evals": result.n_evals,
+        row = {"case": case.label, "cpu": statistics.median(times), "evals": result.n_evals,
                "loss": float(result.loss), "ok": ok}  # fmt: skip
         print(json.dumps(row), flush=True)
 
