@@ -11,6 +11,12 @@ with ``NVIDIA ARC MBSDF``, a MERL ``.binary`` file with the little-endian int32
 line (a CSV header naming ``theta_i``, an ASTM ``KEY value`` line, or the
 wavelength count that starts a pbrt file).
 
+Reading is bounded and total: ``max_samples`` (:mod:`brdffit.io.limits`) is
+checked by every reader before it allocates (an NPZ archive's headers before it
+inflates anything), and whatever a reader meets inside a file ends as a
+:class:`~brdffit.errors.FormatError` or ``DataError`` naming the file, an
+unforeseen exception (``MemoryError`` too) chained to it (:func:`read`).
+
 :data:`FORMATS` maps each name to its reader, writer (None when the format is
 read only) and extensions. The MERL, MBSDF and RGL functions are imported
 when first used.

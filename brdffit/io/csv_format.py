@@ -139,7 +139,7 @@ def parse_csv(text: str, where: str = "<csv text>", angle_unit: str | None = Non
     file_unit, units = _file_unit(meta, where)
     if angle_unit and file_unit and angle_unit != file_unit:
         note(f"{where}: the file says its angles are in {file_unit}; read as {angle_unit}, "
-             "as angle_unit says", stacklevel=3)  # fmt: skip
+             "as angle_unit says", stacklevel=4)  # fmt: skip
     unit = angle_unit or file_unit
     degrees = None if unit is None else unit == "degrees"
     return from_table(where, names, header_line, rows, lines, degrees, source, units, sep)

@@ -385,6 +385,6 @@ def read_rgl(source, max_samples: int | None = DEFAULT_MAX_SAMPLES):
             "(Mitsuba's measured BSDF is zero there), and "
             f"{s.n_merged} duplicates (grid nodes warped to the same direction); "
             f"{len(s.wi)} pairs kept",
-            stacklevel=2,
+            stacklevel=4,  # the caller of brdffit.read
         )
     return Measurements(s.wi, s.wo, s.values, channels=CHANNELS, source=path, units="1/sr")

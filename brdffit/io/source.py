@@ -96,12 +96,20 @@ class Source:
         """The source decoded as UTF-8, or FormatError naming it.
 
         A byte order mark, which spreadsheets write at the start of a saved file,
-        is skipped: UTF-8's, or UTF-16's (then the text is decoded as UTF-16).
+        is skipped: UTF-8's, or UTF-16's when the text after it decodes as UTF-16
+        to Latin letters, digits and punctuation (the formats' text), so that
+        binary bytes that happen to start like one are not taken for text.
         """
         raw = self.read()
-        encoding = "utf-16" if raw.startswith((b"\xff\xfe", b"\xfe\xff")) else "utf-8-sig"
+        if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+            try:
+                text = raw.decode("utf-16")
+            except UnicodeDecodeError:
+                text = None
+            if text is not None and all(ord(c) < 0x250 for c in text):
+                return text
         try:
-            return raw.decode(encoding)
+            return raw.decode("utf-8-sig")
         except UnicodeDecodeError as exc:
             raise FormatError(
                 f"{self.name} is not a UTF-8 text file (byte {exc.start} cannot be decoded); "
