@@ -23,9 +23,7 @@ source of truth:
 The workers must open the store: a cluster on the same machine, or a shared
 file system (SQLite's locking needs one that honours POSIX locks; not NFS).
 
-Wiring (two lines of ``service/app.py``'s lifespan, left to the layout work):
-``runner = runner_for(store, settings.workers)`` instead of
-``runner = JobRunner(store, settings.workers)``.
+The service's lifespan (``service/app.py``) asks :func:`runner_for` for its runner.
 """
 
 from __future__ import annotations
@@ -34,16 +32,14 @@ import logging
 import os
 from concurrent.futures import Executor
 
+from brdffit._extras import require
+
 from .jobs import JobRunner, run_job
 from .store import JobStore
 
-__all__ = ["SCHEDULER_ENV", "DaskJobRunner", "run_job_on_dask", "runner_for"]
+__all__ = ["DaskJobRunner", "run_job_on_dask", "runner_for"]
 
 log = logging.getLogger("brdffit.service")
-
-#: The environment variable naming the Dask scheduler (``tcp://host:8786``), or
-#: ``local`` for a LocalCluster of the service's ``workers`` processes.
-SCHEDULER_ENV = "BRDFFIT_SCHEDULER"
 
 
 def run_job_on_dask(store_path: str, job_id: str, attempt: int, parent_pid=None) -> str:
@@ -122,9 +118,10 @@ class DaskJobRunner(JobRunner):
             self._cluster.close()
 
 
-def runner_for(store: JobStore, workers: int, environ=os.environ) -> JobRunner:
-    """The job runner the environment asks for: Dask when ``BRDFFIT_SCHEDULER`` is set."""
-    address = environ.get(SCHEDULER_ENV)
-    if address:
-        return DaskJobRunner(store, address, workers)
+def runner_for(store: JobStore, workers: int, scheduler: str | None = None) -> JobRunner:
+    """The job runner the settings ask for: Dask when ``scheduler`` (``BRDFFIT_SCHEDULER``)
+    is set, else the service's own process pool."""
+    if scheduler:
+        require("distributed", "batch")
+        return DaskJobRunner(store, scheduler, workers)
     return JobRunner(store, workers)

@@ -14,7 +14,7 @@ distributed = pytest.importorskip(
 )
 
 import brdffit  # noqa: E402
-from brdffit_service.dask_runner import SCHEDULER_ENV, DaskJobRunner, runner_for  # noqa: E402
+from brdffit_service.dask_runner import DaskJobRunner, runner_for  # noqa: E402
 from brdffit_service.store import JobStore, data_to_bytes  # noqa: E402
 
 LONG = {"seed": 1, "global_evals": 3000}  # about a second on 20 000 samples
@@ -47,7 +47,7 @@ def _wait(store, ids, statuses, seconds=60):
 def test_jobs_run_on_the_cluster_and_equal_a_plain_fit(cluster, tmp_path):
     store = JobStore(tmp_path / "jobs.sqlite3")
     data = brdffit.read(Path(__file__).resolve().parents[2] / "data_synthetic" / "ward.csv")
-    runner = runner_for(store, 2, {SCHEDULER_ENV: cluster.scheduler_address})
+    runner = runner_for(store, 2, cluster.scheduler_address)
     assert isinstance(runner, DaskJobRunner)
     try:
         with distributed.get_task_stream(runner.client) as stream:
@@ -69,8 +69,8 @@ def test_jobs_run_on_the_cluster_and_equal_a_plain_fit(cluster, tmp_path):
 
 def test_a_restart_of_the_service_loses_no_job(cluster, big, tmp_path):
     store = JobStore(tmp_path / "jobs.sqlite3")
-    environ = {SCHEDULER_ENV: cluster.scheduler_address}
-    runner = runner_for(store, 2, environ)
+    address = cluster.scheduler_address
+    runner = runner_for(store, 2, address)
     ids = []
     for _ in range(3):  # two run when the service stops, one waits
         job = store.create("ggx", {"seed": 1, "global_evals": 1500}, data_to_bytes(big))
@@ -81,7 +81,7 @@ def test_a_restart_of_the_service_loses_no_job(cluster, big, tmp_path):
     # The next start, as service/app.py's lifespan does it:
     queued = store.recover()
     assert queued and {i for i, _ in queued} < set(ids)
-    runner = runner_for(store, 2, environ)
+    runner = runner_for(store, 2, address)
     try:
         for job_id, attempt in queued:
             runner.submit(job_id, attempt)
@@ -130,3 +130,21 @@ def test_a_cancelled_job_stops_and_writes_nothing(cluster, big, tmp_path):
     finally:
         runner.close()
     assert store.get(job["id"]) is None
+
+
+def test_without_a_scheduler_the_service_keeps_its_own_pool(tmp_path):
+    store = JobStore(tmp_path / "jobs.sqlite3")
+    runner = runner_for(store, 1, None)
+    try:
+        assert not isinstance(runner, DaskJobRunner)
+    finally:
+        runner.close()
+
+
+def test_the_scheduler_setting_comes_from_brdffit_scheduler():
+    from brdffit_service import Settings
+
+    assert Settings.from_env({"BRDFFIT_SCHEDULER": "tcp://10.0.0.1:8786"}).scheduler == (
+        "tcp://10.0.0.1:8786"
+    )
+    assert Settings.from_env({}).scheduler is None
