@@ -144,7 +144,7 @@ def test_without_a_scheduler_the_service_keeps_its_own_pool(tmp_path):
 def test_the_scheduler_setting_comes_from_brdffit_scheduler():
     from brdffit_service import Settings
 
-    assert Settings.from_env({"BRDFFIT_SCHEDULER": "tcp://10.0.0.1:8786"}).scheduler == (
-        "tcp://10.0.0.1:8786"
+    assert Settings.from_env({"BRDFFIT_SCHEDULER": "tcp://127.0.0.1:8786"}).scheduler == (
+        "tcp://127.0.0.1:8786"
     )
     assert Settings.from_env({}).scheduler is None
