@@ -6,6 +6,7 @@ core needs numpy, scipy, nlopt and emcee only; plots, the web service and
 colour conversion are extras (:class:`MissingExtraError` names the one missing).
 """
 
+from .batch import fit_many  # Dask is imported when a batch runs, not here
 from .data.geometry import Geometry
 from .data.measurements import Measurements
 from .errors import (
@@ -43,6 +44,7 @@ __all__ = [
     "export",
     "export_targets",
     "fit",
+    "fit_many",
     "get_model",
     "list_models",
     "read",

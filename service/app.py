@@ -17,8 +17,9 @@ from fastapi import FastAPI
 
 import brdffit
 
+from .dask_runner import runner_for
 from .errors import install_handlers
-from .jobs import FitPool, JobRunner
+from .jobs import FitPool
 from .lock import StoreLock
 from .middleware import BodyLimit
 from .routes import router
@@ -59,7 +60,7 @@ def _lifespan(settings: Settings):
         lock = StoreLock(settings.store_path).acquire()
         try:
             store = JobStore(settings.store_path)
-            runner = JobRunner(store, settings.workers)
+            runner = runner_for(store, settings.workers, settings.scheduler)
             fits = FitPool(settings.fit_workers)
             app.state.store, app.state.runner, app.state.fits = store, runner, fits
             for job_id, attempt in store.recover():

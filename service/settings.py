@@ -60,6 +60,13 @@ class Settings(BaseModel):
     job_timeout: float = Field(
         3600.0, gt=0, description="Seconds a job's fit, and its posterior, may each run."
     )
+    scheduler: str | None = Field(
+        None,
+        max_length=500,
+        description="Run jobs on this Dask scheduler (tcp://host:8786), or on a local Dask "
+        "cluster of `workers` processes with `local`; unset: the service's own process "
+        "pool (dask_runner.py; needs the 'batch' extra).",
+    )
     api_token: SecretStr | None = Field(
         None,
         min_length=1,

@@ -19,7 +19,7 @@ import warnings
 from .. import __version__
 from ..errors import BrdfFitError, MissingExtraError
 from ..fitting.losses import LOSSES
-from . import export
+from . import batch, export
 from .commands import (
     AXES,
     cmd_compare,
@@ -202,7 +202,7 @@ def build_parser() -> argparse.ArgumentParser:
         dest="command", required=True, metavar="COMMAND", parser_class=_Parser
     )
     for add in (_add_models, _add_fit, _add_compare, _add_synth, _add_evaluate, export.add_parser,
-                _add_serve):  # fmt: skip
+                batch.add_parser, _add_serve):  # fmt: skip
         add(sub)
     return parser
 

@@ -16,10 +16,12 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .. import kernels
 from ..errors import FitError, ParameterError
+from ..kernels import normal as kernels_normal
 from ..models import get_model
 from ..words import plural
-from .linear import normal_equations, solve_bounded, weighted_target
+from .linear import Normal, normal_equations, solve_bounded, weighted_target
 from .losses import LossContext, get_loss
 
 __all__ = ["Problem", "Solution"]
@@ -268,10 +270,13 @@ class Problem:
         for i, name in zip(self.fixed_index, self.fixed_coefs):
             term = _as_2d(cols[i]) * np.asarray(self.fixed[name], dtype=float)
             offset = term if offset is None else offset + term
-        a = _stack([cols[i] for i in self.coef_index], m, c)
+        free = [cols[i] for i in self.coef_index]
         constraints = self._constraints_for(shape)
+        normal = self._compiled_normal([design.columns[i] for i in self.coef_index], offset)
         try:
-            return self._solve_linear(shape, a, offset, constraints)
+            if normal is not None:
+                return self._solve_normal(shape, normal, constraints)
+            return self._solve_linear(shape, _stack(free, m, c), offset, constraints)
         except np.linalg.LinAlgError:
             # No coefficients satisfy the constraints at this shape (energy
             # conservation with a too bright offset): infeasible, never NaN.
@@ -309,6 +314,22 @@ class Problem:
         if not np.isfinite(loss):
             loss = BAD_LOSS
         return Solution(shape, coefs, loss)
+
+    def _compiled_normal(self, free, offset):
+        """The normal equations in one compiled pass over the columns, without stacking
+        them (:mod:`brdffit.kernels.normal`), where that applies (a quadratic loss, no
+        offset, one array column); else None."""
+        if offset is not None or self._weighted is None or not kernels.wanted(self.geometry.m):
+            return None
+        return kernels_normal.normal_equations(
+            free, self.z_lin, self.w_lin, self._weighted, Normal
+        )
+
+    def _solve_normal(self, shape, normal, constraints) -> Solution:
+        """Coefficients and loss from ready normal equations (a quadratic loss)."""
+        coefs, rss = solve_bounded(normal, self.coef_lower, self.coef_upper, constraints)
+        loss = (float(rss.sum()) + self.invalid_loss) / self.norm
+        return Solution(shape, coefs, loss if np.isfinite(loss) else BAD_LOSS)
 
     def _least_squares(self, a, offset, w, z, constraints):
         c = z.shape[1]

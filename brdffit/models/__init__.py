@@ -5,6 +5,7 @@ from __future__ import annotations
 import difflib
 
 from ..errors import ModelError
+from ..kernels import install as install_kernels
 from . import (
     anisotropic,
     empirical,
@@ -32,6 +33,9 @@ REGISTRY: dict[str, Model] = {
         *mitsuba_principled.MODELS,
     )
 }
+
+# The common models evaluate through compiled loops when numba is installed.
+install_kernels(REGISTRY)
 
 _AXES = ("origin", "symmetry", "operand", "highlight", "wave_optics")
 

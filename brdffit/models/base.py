@@ -292,7 +292,11 @@ class Model:
             params = self.check_params(params)
         shape = {p.name: params[p.name] for p in self.shape_params}
         coefs = self.coefficient_values(params)
-        values = combine(self.design(geometry, shape), coefs, geometry.m)
+        # A compiled design (brdffit.kernels) evaluates the whole BRDF in one pass.
+        fused = getattr(self.design, "evaluate", None)
+        values = fused(geometry, shape, coefs) if fused is not None else None
+        if values is None:
+            values = combine(self.design(geometry, shape), coefs, geometry.m)
         return geometry.scatter(values)
 
     def coefficient_values(self, params: Mapping) -> list:

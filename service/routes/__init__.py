@@ -2,11 +2,11 @@
 
 from fastapi import APIRouter
 
-from . import export, fit, health, jobs, models
+from . import batches, export, fit, health, jobs, models
 from .common import SERVER_ERRORS
 
 __all__ = ["router"]
 
 router = APIRouter(responses=SERVER_ERRORS)
-for _module in (health, models, fit, jobs, export):
+for _module in (health, models, fit, jobs, batches, export):
     router.include_router(_module.router)

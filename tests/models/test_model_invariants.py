@@ -13,6 +13,9 @@ from brdffit import DataError, ModelError, ParameterError, get_model, list_model
 from brdffit.data.geometry import Geometry, directions_from_angles
 from brdffit.models import REGISTRY
 
+# Every test here runs on the compiled kernels and on the numpy formulas.
+pytestmark = pytest.mark.usefixtures("evaluation_path")
+
 MODELS = sorted(REGISTRY)
 
 

@@ -13,6 +13,9 @@ from helpers import hemisphere_pairs
 from brdffit import ParameterError, get_model
 from brdffit.models import REGISTRY
 
+# Every test here runs on the compiled kernels and on the numpy formulas.
+pytestmark = pytest.mark.usefixtures("evaluation_path")
+
 
 # ------------------------------------------------- scalar vector helpers
 def direction(theta_deg, phi_deg):
@@ -224,7 +227,10 @@ def test_ashikhmin_phong_with_equal_exponents_is_normalised_blinn():
     for n in (1.0, 60.0, 5000.0):
         f = get_model("ashikhmin_phong").evaluate(wi, wo, {"kd": 0.0, "ks": 1.0, "nu": n, "nv": n})
         blinn = get_model("blinn").evaluate(wi, wo, {"kd": 0.0, "ks": 1.0, "n": n})
-        np.testing.assert_allclose(f, (n + 1) / (2 * math.pi) * blinn, rtol=1e-12)
+        # The compiled blinn flushes values under exp(-708) = 3.3e-308 to 0 where numpy's
+        # exp underflows gradually (brdffit.kernels._compile.fast_exp); scaled here.
+        scale = (n + 1) / (2 * math.pi)
+        np.testing.assert_allclose(f, scale * blinn, rtol=1e-12, atol=scale * math.exp(-708.0))
 
 
 def test_fournier_without_tilt_is_blinn():

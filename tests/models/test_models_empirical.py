@@ -43,6 +43,9 @@ PAIRS = (
     (20.0, 0.0, 25.0, 175.0),  # near the mirror direction
 )
 
+# Every test here runs on the compiled kernels and on the numpy formulas.
+pytestmark = pytest.mark.usefixtures("evaluation_path")
+
 
 def unit(theta_deg: float, phi_deg: float) -> tuple:
     t, p = math.radians(theta_deg), math.radians(phi_deg)

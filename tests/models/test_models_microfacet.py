@@ -19,6 +19,9 @@ from helpers import hemisphere_pairs, random_params
 from brdffit.data.geometry import MIN_COSINE, Geometry, directions_from_angles
 from brdffit.models import REGISTRY, microfacet, renderers
 
+# Every test here runs on the compiled kernels and on the numpy formulas.
+pytestmark = pytest.mark.usefixtures("evaluation_path")
+
 MODELS = {m.name: m for m in (*microfacet.MODELS, *renderers.MODELS)}
 
 

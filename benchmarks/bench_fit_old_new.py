@@ -1,0 +1,90 @@
+"""The fit benchmark's problems (benchmarks/_suite.py) by today's tree and this one,
+in CPU time, alternating, in one run.
+
+Each tree runs in its own process (``PYTHONPATH`` = the tree; the suite and its
+data read from that tree): every problem fitted ``--fits`` times with
+``brdffit.fit`` defaults, the median CPU time (``time.process_time``) of the fits,
+their evaluations, loss, and whether they succeed by the suite's rule. The two
+trees alternate ``--rounds`` times and the medians over the rounds are compared.
+CPU time, unlike bench_fit.py's wall clock, is what a fit costs with the core to
+itself, which a shared machine can reproduce.
+
+    python benchmarks/bench_fit_old_new.py --old /tmp/brdffit-old [--rounds 3] [--fits 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def worker(fits: int) -> None:
+    """In a tree's process: every problem of its suite, as JSON lines."""
+    sys.path.insert(0, str(Path.cwd() / "benchmarks"))
+    from _suite import cornell_cases, recovered, synthetic_cases
+
+    import brdffit
+
+    for case in synthetic_cases() + cornell_cases():
+        times, result = [], None
+        for _ in range(fits):
+            start = time.process_time()
+            result = brdffit.fit(case.data, case.model)
+            times.append(time.process_time() - start)
+        ok = recovered(case, result.params) if case.truth is not None else None
+        row = {"case": case.label, "cpu": statistics.median(times), "evals": result.n_evals,
+               "loss": float(result.loss), "ok": ok}  # fmt: skip
+        print(json.dumps(row), flush=True)
+
+
+def run(tree: Path, fits: int) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1",
+           "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}  # fmt: skip
+    code = f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); " \
+        f"import bench_fit_old_new as b; b.worker({fits})"  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tree, check=True,
+                         capture_output=True, text=True)  # fmt: skip
+    rows = [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
+    return {r["case"]: r for r in rows}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--old", required=True)
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--fits", type=int, default=3)
+    args = parser.parse_args(argv)
+    old = Path(args.old).resolve()
+    with open("/proc/loadavg") as handle:
+        load = " ".join(handle.read().split()[:3])
+    rounds = {"old": [], "new": []}
+    for _ in range(args.rounds):
+        rounds["old"].append(run(old, args.fits))
+        rounds["new"].append(run(ROOT, args.fits))
+    print(f"# Fit problems, old ({old}) and new ({ROOT}), CPU s; load at start {load}\n")
+    header = (
+        "| problem | old CPU s | new CPU s | new/old | evals old/new | ok old/new | loss diff |"
+    )
+    print(header)
+    print("| --- | ---: | ---: | ---: | --- | --- | ---: |")
+    for case in rounds["old"][0]:
+        t_old = statistics.median(r[case]["cpu"] for r in rounds["old"])
+        t_new = statistics.median(r[case]["cpu"] for r in rounds["new"])
+        o, n = rounds["old"][0][case], rounds["new"][0][case]
+        diff = abs(n["loss"] - o["loss"]) / max(abs(o["loss"]), 1e-300)
+        print(f"| {case} | {t_old:.3f} | {t_new:.3f} | {t_new / max(t_old, 1e-9):.2f} | "
+              f"{o['evals']}/{n['evals']} | {o['ok']}/{n['ok']} | {diff:.1e} |")  # fmt: skip
+    print(f"\nCommand: python {' '.join(sys.argv)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

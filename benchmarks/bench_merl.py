@@ -1,0 +1,134 @@
+"""Whole-MERL fits: today's engine (a given commit) beside this tree, in one run.
+
+The benchmark writes a full MERL file (every cell of the 90 x 90 x 180 table,
+1.1 M cells above the horizon, RGB) from a known truth (``cook_torrance`` with
+coloured ``kd`` and ``ks`` and 1 % seeded relative noise) with brdffit's MERL
+writer, then fits it with each model (default: blinn, ward, cook_torrance, ggx)
+by ``brdffit.fit`` with its defaults, each fit in a fresh Python process:
+
+- ``old``: the tree of ``--old`` (a path, e.g. a worktree of today's commit made
+  with ``git worktree add /tmp/brdffit-old <commit>``) first on ``PYTHONPATH``;
+- ``new``: this tree first on ``PYTHONPATH``.
+
+Each figure is the median over ``--repeats`` runs (old and new alternate) of the
+CPU time of the fit alone (``time.process_time`` around ``brdffit.fit``, the file
+already read) and the process's peak resident memory (``ru_maxrss``, the whole
+process: interpreter, file, fit). The parameters of the two are compared (largest
+relative difference over every parameter and channel; the issue asks for 0.1 %).
+
+    python benchmarks/bench_merl.py --old /tmp/brdffit-old [--models ggx] [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+MODELS = ("blinn", "ward", "cook_torrance", "ggx")
+TRUTH = {"kd": [0.12, 0.08, 0.05], "ks": [0.9, 0.7, 0.5], "m": 0.15, "eta": 1.6}
+
+
+def write_file(path: Path) -> None:
+    """The benchmark's MERL file: ``cook_torrance`` at TRUTH on every cell, 1 % noise."""
+    import brdffit
+
+    data = brdffit.synthesize("cook_torrance", TRUTH, geometry="merl", noise=0.01, seed=7)
+    brdffit.write(str(path), data, format="merl")
+
+
+def worker(path: str, model: str) -> None:
+    """One fit in this process; prints its CPU time, peak memory and parameters."""
+    import brdffit
+
+    data = brdffit.read(path)
+    start = time.process_time()
+    result = brdffit.fit(data, model)
+    seconds = time.process_time() - start
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    params = {k: np.atleast_1d(v).tolist() for k, v in result.params.items()}
+    tree = str(Path(brdffit.__file__).parents[1])
+    print(json.dumps({"tree": tree, "seconds": seconds, "peak_mb": peak_mb, "params": params,
+                      "loss": float(result.loss), "samples": int(data.n)}))  # fmt: skip
+
+
+def run(tree: Path, path: Path, model: str) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1",
+           "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}  # fmt: skip
+    code = (
+        f"import sys; sys.path.insert(0, {str(HERE)!r}); import bench_merl; "
+        f"bench_merl.worker({str(path)!r}, {model!r})"
+    )
+    # cwd: the file's folder, so that no brdffit in the working directory shadows the tree
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=path.parent,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def largest_difference(a: dict, b: dict) -> float:
+    """Largest relative difference of any parameter value of ``b`` from ``a``."""
+    worst = 0.0
+    for name, values in a.items():
+        x, y = np.asarray(values), np.asarray(b[name])
+        worst = max(worst, float(np.max(np.abs(y - x) / np.maximum(np.abs(x), 1e-12))))
+    return worst
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--old", required=True, help="path of today's tree (a worktree)")
+    parser.add_argument("--models", default=",".join(MODELS))
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args(argv)
+    old = Path(args.old).resolve()
+    if not (old / "brdffit" / "__init__.py").is_file():
+        return f"bench_merl: {old} has no brdffit package"
+    with open("/proc/loadavg") as handle:
+        load = " ".join(handle.read().split()[:3])
+    print("# Whole-MERL fits, today's engine and this tree (one core each)\n")
+    print(f"- old tree: {old}; new tree: {ROOT}; load average at start: {load}")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "truth.binary"
+        write_file(path)
+        print(f"- file: {path.stat().st_size / 1e6:.0f} MB; truth cook_torrance {TRUTH}\n")
+        print("| model | old CPU s | new CPU s | speed-up | old peak MB | new peak MB "
+              "| max param diff | old loss | new loss |")  # fmt: skip
+        print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        for model in args.models.split(","):
+            runs = {"old": [], "new": []}
+            for _ in range(args.repeats):
+                runs["old"].append(run(old, path, model))
+                runs["new"].append(run(ROOT, path, model))
+            o, n = runs["old"][0], runs["new"][0]
+            assert Path(o["tree"]) == old and Path(n["tree"]) == ROOT, (o["tree"], n["tree"])
+            t_old = statistics.median(r["seconds"] for r in runs["old"])
+            t_new = statistics.median(r["seconds"] for r in runs["new"])
+            m_old = statistics.median(r["peak_mb"] for r in runs["old"])
+            m_new = statistics.median(r["peak_mb"] for r in runs["new"])
+            diff = largest_difference(o["params"], n["params"])
+            print(f"| {model} | {t_old:.2f} | {t_new:.2f} | {t_old / t_new:.1f}x | "
+                  f"{m_old:.0f} | {m_new:.0f} | {diff:.1e} | {o['loss']:.6g} | "
+                  f"{n['loss']:.6g} |", flush=True)  # fmt: skip
+    print(f"\nCommand: python {' '.join(sys.argv)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

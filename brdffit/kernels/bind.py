@@ -1,0 +1,146 @@
+"""Models bound to their compiled loops.
+
+:class:`CompiledDesign` replaces a model's design function: it returns the same
+:class:`~brdffit.models.base.Design` as the numpy function it wraps, its columns
+computed by a compiled loop, and it offers :meth:`CompiledDesign.evaluate`, the
+whole BRDF in one pass, which :meth:`brdffit.models.Model.evaluate_prepared` uses.
+When the kernels are not wanted for the geometry (:func:`brdffit.kernels.wanted`:
+switched off, too few pairs, or numba not installed), both fall back to the numpy
+design (``reference``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from ..models.base import INV_PI, Design
+from . import inputs
+
+__all__ = ["CompiledDesign", "SPECS"]
+
+
+def _loops():
+    from . import loops  # numba compiles (or loads its cache) on the first call only
+
+    return loops
+
+
+class _Lobe:
+    """``kd/pi + ks lobe``: a loop of :mod:`~brdffit.kernels.loops`, its inputs and
+    the shape parameters it takes, transformed (``alpha -> alpha^2``)."""
+
+    def __init__(self, loop: str, prepare: Callable, shape: Callable):
+        self.loop, self.prepare, self.shape = loop, prepare, shape
+
+    def run(self, geometry, shape: Mapping, a: float, b: float) -> np.ndarray:
+        loops = _loops()
+        extra = (loops.SMITH_TABLE,) if self.loop == "beckmann" else ()
+        out = np.empty(geometry.m)
+        return getattr(loops, self.loop)(
+            *self.prepare(geometry), *self.shape(shape), a, b, *extra, out
+        )
+
+    def design(self, geometry, shape: Mapping) -> Design:
+        return Design((INV_PI, self.run(geometry, shape, 1.0, 0.0)))
+
+    def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray:
+        kd, ks = (float(c) for c in coefs)
+        return self.run(geometry, shape, ks, kd * INV_PI)
+
+
+class _AshikhminShirley:
+    """Columns ``(diffuse, S (1 - w))`` and offset ``S w``; see the model's doc."""
+
+    def design(self, geometry, shape: Mapping) -> Design:
+        log_t, log_b, scale, weight, diffuse = inputs.ashikhmin_shirley_inputs(geometry)
+        column, offset = np.empty(geometry.m), np.empty(geometry.m)
+        _loops().ashikhmin_shirley_columns(
+            log_t, log_b, scale, weight, float(shape["nu"]), float(shape["nv"]), column, offset
+        )
+        return Design(columns=(diffuse, column), offset=offset)
+
+    def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray:
+        rd_eff, rs = (float(c) for c in coefs)
+        terms = inputs.ashikhmin_shirley_inputs(geometry)
+        nu, nv = float(shape["nu"]), float(shape["nv"])
+        return _loops().ashikhmin_shirley(*terms, nu, nv, rd_eff, rs, np.empty(geometry.m))
+
+
+def _stack_rows(parts: list):
+    """One design part over the rows of a batch: the part itself when every row has
+    the same object (a constant, a cached column), else the rows stacked (W, M)."""
+    if all(part is parts[0] for part in parts):
+        return parts[0]
+    return np.stack(parts)
+
+
+def _alpha2(name: str, second: str | None = None) -> Callable:
+    if second is None:
+        return lambda s: (float(s[name]) ** 2,)
+    return lambda s: (float(s[name]) ** 2, float(s[second]))
+
+
+#: Model name -> its compiled form.
+SPECS = {
+    "ggx": _Lobe("ggx", inputs.microfacet_inputs, _alpha2("alpha", "f0")),
+    "beckmann": _Lobe("beckmann", inputs.beckmann_inputs, _alpha2("alpha", "f0")),
+    "ward": _Lobe("ward", inputs.ward_inputs, _alpha2("alpha")),
+    "cook_torrance": _Lobe("cook_torrance", inputs.cook_torrance_inputs, _alpha2("m", "eta")),
+    "blinn": _Lobe("blinn", inputs.blinn_inputs, lambda s: (float(s["n"]),)),
+    "ward_anisotropic": _Lobe(
+        "ward_anisotropic",
+        inputs.ward_anisotropic_inputs,
+        lambda s: (float(s["alpha_x"]), float(s["alpha_y"])),
+    ),
+    "ashikhmin_shirley": _AshikhminShirley(),
+}
+
+
+class CompiledDesign:
+    """A model's design function computed by its compiled loop when the kernels are
+    wanted for the geometry, else by ``reference`` (the numpy design it replaces)."""
+
+    def __init__(self, reference: Callable, compiled, wanted: Callable[[int], bool]):
+        self.reference, self.compiled, self._wanted = reference, compiled, wanted
+        self.__doc__ = getattr(reference, "__doc__", None)
+
+    def __call__(self, geometry, shape: Mapping) -> Design:
+        if not self._wanted(geometry.m):
+            return self.reference(geometry, shape)
+        if all(np.ndim(value) == 0 for value in shape.values()):
+            return self.compiled.design(geometry, shape)
+        return self._batched(geometry, shape)
+
+    def _batched(self, geometry, shape: Mapping) -> Design:
+        """Shape parameters of shape (W, 1), one row per walker of the posterior
+        sampler: the compiled design of each row, array columns stacked to (W, M)
+        (columns the same for every row, such as a constant, stay as they are).
+        Other shapes go to the numpy design, which broadcasts them."""
+        arrays = {k: np.asarray(v, dtype=float) for k, v in shape.items()}
+        try:
+            common = np.broadcast_shapes(*(a.shape for a in arrays.values()))
+        except ValueError:
+            return self.reference(geometry, shape)
+        if len(common) != 2 or common[1] != 1:
+            return self.reference(geometry, shape)
+        rows = [
+            self.compiled.design(
+                geometry, {k: float(np.broadcast_to(a, common)[w, 0]) for k, a in arrays.items()}
+            )
+            for w in range(common[0])
+        ]
+        columns = tuple(
+            _stack_rows([r.columns[j] for r in rows]) for j in range(len(rows[0].columns))
+        )
+        offset = None if rows[0].offset is None else _stack_rows([r.offset for r in rows])
+        return Design(columns, offset)
+
+    def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray | None:
+        """The BRDF on the valid pairs in one compiled pass, or None when the kernels
+        are off or a coefficient is given per channel (then the caller combines the
+        design's columns)."""
+        if not self._wanted(geometry.m) or any(np.ndim(c) for c in coefs):
+            return None
+        return self.compiled.evaluate(geometry, shape, coefs)

@@ -1,0 +1,122 @@
+"""Parameter-free inputs of the kernels, computed once per geometry.
+
+Each kernel reads a few contiguous float64 arrays over the valid pairs of a
+:class:`~brdffit.data.geometry.Geometry`: the factors of its model that do not
+depend on a parameter, combined as far as possible so that an evaluation reads
+few bytes per pair. They are cached on the geometry (``Geometry.cached``) like the
+numpy models' own terms, and computed with the same formulas and clamps (MODELS.md
+conventions; :mod:`brdffit.models.shared` for the pieces), so the compiled and the
+numpy evaluations agree to rounding.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..data.geometry import MIN_COSINE, Geometry
+
+__all__ = [
+    "ashikhmin_shirley_inputs",
+    "beckmann_inputs",
+    "blinn_inputs",
+    "cook_torrance_inputs",
+    "microfacet_inputs",
+    "ward_anisotropic_inputs",
+    "ward_inputs",
+]
+
+
+def _tan2_of(w: np.ndarray, cos: np.ndarray) -> np.ndarray:
+    """``tan^2`` of a polar angle as ``(x^2 + y^2) / z^2`` (accurate near the normal)."""
+    return (w[:, 0] ** 2 + w[:, 1] ** 2) / (cos * cos)
+
+
+def _pow5(x: np.ndarray) -> np.ndarray:
+    x2 = x * x
+    return x2 * x2 * x
+
+
+def _ward_factor(g: Geometry) -> np.ndarray:
+    """``1 / (4 pi sqrt((N.L)(N.V)))``."""
+    return 1.0 / (4.0 * math.pi * np.sqrt(g.cos_i * g.cos_o))
+
+
+def microfacet_inputs(g: Geometry) -> tuple:
+    """GGX with Smith shadowing: ``tan^2 theta_h``, ``tan^2`` of L and of V,
+    ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's ``(1 - V.H)^5``."""
+
+    def compute():
+        c2 = g.cos_h * g.cos_h
+        factor = 1.0 / (4.0 * g.cos_i * g.cos_o * c2 * c2)
+        tan2_i, tan2_o = _tan2_of(g.wi, g.cos_i), _tan2_of(g.wo, g.cos_o)
+        return g.tan2_h, tan2_i, tan2_o, factor, _pow5(1.0 - g.cos_d)
+
+    return g.cached("kernels.microfacet", compute)
+
+
+def beckmann_inputs(g: Geometry) -> tuple:
+    """As :func:`microfacet_inputs`, with the logarithm of the factor (it is added to
+    the exponent of Beckmann's ``D``)."""
+
+    def compute():
+        tan2_h, tan2_i, tan2_o, factor, weight = microfacet_inputs(g)
+        return tan2_h, tan2_i, tan2_o, np.log(factor), weight
+
+    return g.cached("kernels.beckmann", compute)
+
+
+def ward_inputs(g: Geometry) -> tuple:
+    """Ward: ``tan^2 theta_h`` and ``ln(1 / (4 pi sqrt((N.L)(N.V))))``."""
+    return g.cached("kernels.ward", lambda: (g.tan2_h, np.log(_ward_factor(g))))
+
+
+def cook_torrance_inputs(g: Geometry) -> tuple:
+    """Cook-Torrance: ``tan^2 theta_h``, ``ln(G / (4 pi (N.L)(N.V) (N.H)^4))`` with the
+    V-cavity ``G = min(1, 2 (N.H) min(N.L, N.V) / (V.H))`` and ``V.H``."""
+
+    def compute():
+        c2 = g.cos_h * g.cos_h
+        shadowing = np.minimum(
+            1.0, 2.0 * g.cos_h / np.maximum(g.cos_d, 1e-300) * np.minimum(g.cos_i, g.cos_o)
+        )
+        factor = shadowing / (4.0 * g.cos_i * g.cos_o) * (1.0 / (math.pi * c2 * c2))
+        return g.tan2_h, np.log(factor), np.maximum(g.cos_d, 1e-300)
+
+    return g.cached("kernels.cook_torrance", compute)
+
+
+def blinn_inputs(g: Geometry) -> tuple:
+    """Blinn: ``ln(N.H)``, so that ``(N.H)^n = exp(n ln(N.H))``."""
+    return (g.log_cos_h,)
+
+
+def ward_anisotropic_inputs(g: Geometry) -> tuple:
+    """Anisotropic Ward: ``(H.T / N.H)^2``, ``(H.B / N.H)^2`` and the logarithm of
+    Ward's factor."""
+
+    def compute():
+        inv_c2 = 1.0 / (g.cos_h * g.cos_h)
+        h = g.half
+        return h[:, 0] ** 2 * inv_c2, h[:, 1] ** 2 * inv_c2, np.log(_ward_factor(g))
+
+    return g.cached("kernels.ward_anisotropic", compute)
+
+
+def ashikhmin_shirley_inputs(g: Geometry) -> tuple:
+    """Ashikhmin-Shirley: ``cos^2(phi_h) ln(N.H)``, ``sin^2(phi_h) ln(N.H)``,
+    ``ln(1 / (8 pi (V.H) max(N.L, N.V)))``, ``(1 - V.H)^5`` and the diffuse column
+    ``28/(23 pi) (1 - (1 - N.L/2)^5)(1 - (1 - N.V/2)^5)``."""
+
+    def compute():
+        log_c = g.log_cos_h
+        c = np.maximum(g.cos_d, MIN_COSINE)
+        scale = 1.0 / (8.0 * math.pi * c * np.maximum(g.cos_i, g.cos_o))
+        diffuse = (1.0 - _pow5(1.0 - 0.5 * g.cos_i)) * (1.0 - _pow5(1.0 - 0.5 * g.cos_o))
+        diffuse *= 28.0 / (23.0 * math.pi)
+        along_t = g.cos2_phi_h * log_c
+        weight = _pow5(1.0 - g.cos_d)
+        return along_t, g.sin2_phi_h * log_c, np.log(scale), weight, diffuse
+
+    return g.cached("kernels.ashikhmin_shirley", compute)

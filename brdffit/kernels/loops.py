@@ -1,0 +1,221 @@
+"""The compiled per-pair loops: one fused pass per evaluation.
+
+Each loop reads the parameter-free inputs of :mod:`brdffit.kernels.inputs` and
+writes ``out[i] = b + a * lobe_i``: with ``a = 1, b = 0`` the lobe column of the
+variable projection, with ``a = ks, b = kd / pi`` the BRDF itself, without a
+temporary array. Where a lobe has an exponential, its positive factors (the
+geometry's, as a cached logarithm, and the parameters' scale) are added to the
+exponent: :func:`~brdffit.kernels._compile.fast_exp` flushes results under 3.3e-308
+to 0, and a tiny exponential times a large factor (``1/((N.L)(N.V))`` reaches 1e20
+at grazing angles) would otherwise lose a value that numpy keeps. The formulas are
+those of the numpy models (MODELS.md), whose docstrings cite the primary sources:
+
+- GGX ``D`` and Smith ``G1`` (Walter, Marschner, Li and Torrance, Microfacet
+  models for refraction through rough surfaces, EGSR 2007, eqs. 33-34), Beckmann
+  ``D`` and its exact Smith ``G1`` (ibid., and Heitz, JCGT 3(2), 2014, section 5.1);
+- Ward's isotropic and anisotropic lobes (Ward, SIGGRAPH 1992, eq. 5a);
+- Cook-Torrance with V-cavity shadowing and the dielectric Fresnel term (Cook and
+  Torrance, ACM TOG 1(1), 1982);
+- Blinn's ``(N.H)^n`` (Blinn, SIGGRAPH 1977);
+- Ashikhmin-Shirley (Ashikhmin and Shirley, JGT 5(2), 2000, eqs. 4-5).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ._compile import FLAGS, fast_exp, jit
+from .smith import A_MAX, WIDTH
+from .smith import table as smith_table
+
+_INV_PI = 1.0 / math.pi
+
+
+@jit
+def ggx(tan2_h, tan2_i, tan2_o, factor, weight, alpha2, f0, a, b, out):
+    """GGX with Smith ``G1 = 2 / (1 + sqrt(1 + alpha^2 tan^2))`` and Schlick's F."""
+    inv_a2 = 1.0 / alpha2
+    scale = 4.0 * a * _INV_PI * inv_a2
+    for i in range(out.shape[0]):
+        t = 1.0 + tan2_h[i] * inv_a2
+        g = (1.0 + math.sqrt(1.0 + alpha2 * tan2_i[i])) * (
+            1.0 + math.sqrt(1.0 + alpha2 * tan2_o[i])
+        )
+        fresnel = f0 + (1.0 - f0) * weight[i]
+        out[i] = b + scale * factor[i] * fresnel / (t * t * g)
+    return out
+
+
+@numba.njit(inline="always", fastmath=FLAGS)
+def beckmann_g1(t, coefficients):
+    """Exact Smith masking of Beckmann for ``t = alpha^2 tan^2``, ``a = 1/sqrt(t)``:
+    1 for ``a >= 6`` (``Lambda < 3e-18``), else ``a q(a)`` from the polynomial table
+    of :mod:`brdffit.kernels.smith` (no library call, so the loop vectorises)."""
+    a = 1.0 / math.sqrt(max(t, 1e-300))
+    j = int(min(a, A_MAX - WIDTH / 2) * (1.0 / WIDTH))
+    x = (a - j * WIDTH) * (2.0 / WIDTH) - 1.0
+    k = j * 11  # the row of interval j in the flat table; Horner written out
+    q = coefficients[k + 10] * x + coefficients[k + 9]
+    q = q * x + coefficients[k + 8]
+    q = q * x + coefficients[k + 7]
+    q = q * x + coefficients[k + 6]
+    q = q * x + coefficients[k + 5]
+    q = q * x + coefficients[k + 4]
+    q = q * x + coefficients[k + 3]
+    q = q * x + coefficients[k + 2]
+    q = q * x + coefficients[k + 1]
+    q = q * x + coefficients[k + 0]
+    return 1.0 if a >= A_MAX else a * q
+
+
+@jit
+def beckmann(tan2_h, tan2_i, tan2_o, log_factor, weight, alpha2, f0, a, b, coefficients, out):
+    """Beckmann ``D`` with its exact Smith ``G1`` and Schlick's F. ``log_factor`` is
+    ``ln(1 / (4 (N.L)(N.V) (N.H)^4))``, added to the exponent of ``D``."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_a2 = 1.0 / alpha2
+    log_scale = math.log(a * _INV_PI * inv_a2)
+    for i in range(out.shape[0]):
+        fresnel = f0 + (1.0 - f0) * weight[i]
+        g = beckmann_g1(alpha2 * tan2_i[i], coefficients) * beckmann_g1(
+            alpha2 * tan2_o[i], coefficients
+        )
+        lobe = fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_a2)
+        out[i] = b + fresnel * g * lobe
+    return out
+
+
+@jit
+def ward(tan2_h, log_factor, alpha2, a, b, out):
+    """``exp(-tan^2/alpha^2) / (4 pi alpha^2 sqrt((N.L)(N.V)))``; ``log_factor`` is
+    ``ln(1 / (4 pi sqrt((N.L)(N.V))))``."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_a2 = 1.0 / alpha2
+    log_scale = math.log(a * inv_a2)
+    for i in range(out.shape[0]):
+        out[i] = b + fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_a2)
+    return out
+
+
+@jit
+def cook_torrance(tan2_h, log_factor, cos_d, m2, eta, a, b, out):
+    """Beckmann ``D``, V-cavity ``G`` (in ``log_factor``, the logarithm of
+    ``G / (4 pi (N.L)(N.V) (N.H)^4)``) and the exact dielectric Fresnel factor
+    ``(Rs + Rp) / 2`` with ``g = sqrt(max(0, eta^2 - 1 + c^2))``,
+    ``Rs = ((c - g)/(c + g))^2`` and ``Rp = ((eta^2 c - g)/(eta^2 c + g))^2``
+    (:func:`brdffit.models.shared.fresnel_dielectric`), over one common denominator:
+    one division per pair instead of three."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_m2 = 1.0 / m2
+    e2 = eta * eta
+    log_scale = math.log(0.5 * a * inv_m2)
+    for i in range(out.shape[0]):
+        c = cos_d[i]
+        g = math.sqrt(max(c * c + (e2 - 1.0), 0.0))
+        s_num, s_den = (c - g) * (e2 * c + g), (c + g) * (e2 * c + g)
+        p_num = (e2 * c - g) * (c + g)
+        den = s_den * s_den  # > 0: V.H >= (N.L + N.V)/2 > 0 for valid pairs
+        fresnel = (s_num * s_num + p_num * p_num) / den if den > 0.0 else 2.0
+        out[i] = b + fresnel * fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_m2)
+    return out
+
+
+@jit
+def blinn(log_cos_h, n, a, b, out):
+    """``(N.H)^n = exp(n ln(N.H))``."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a)
+    for i in range(out.shape[0]):
+        out[i] = b + fast_exp(n * log_cos_h[i] + log_a)
+    return out
+
+
+@jit
+def ward_anisotropic(tan2_t, tan2_b, log_factor, alpha_x, alpha_y, a, b, out):
+    """``exp(-(tan2_t/alpha_x^2 + tan2_b/alpha_y^2)) / (4 pi alpha_x alpha_y
+    sqrt((N.L)(N.V)))``; ``log_factor`` as in :func:`ward`."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_x2 = 1.0 / (alpha_x * alpha_x)
+    inv_y2 = 1.0 / (alpha_y * alpha_y)
+    log_scale = math.log(a / (alpha_x * alpha_y))
+    for i in range(out.shape[0]):
+        exponent = log_scale + log_factor[i] - (tan2_t[i] * inv_x2 + tan2_b[i] * inv_y2)
+        out[i] = b + fast_exp(exponent)
+    return out
+
+
+@jit
+def ashikhmin_shirley_columns(log_t, log_b, log_scale, weight, nu, nv, column, offset):
+    """Ashikhmin-Shirley's specular column ``S (1 - w)`` and offset ``S w`` with
+    ``S = sqrt((nu+1)(nv+1)) (N.H)^(nu cos^2 phi_h + nv sin^2 phi_h) / (8 pi (V.H)
+    max(N.L, N.V))`` (``log_scale`` the logarithm of the last factor) and
+    ``w = (1 - V.H)^5``."""
+    log_norm = 0.5 * math.log((nu + 1.0) * (nv + 1.0))
+    for i in range(column.shape[0]):
+        s = fast_exp(log_norm + log_scale[i] + nu * log_t[i] + nv * log_b[i])
+        offset[i] = s * weight[i]
+        column[i] = s * (1.0 - weight[i])
+    return column, offset
+
+
+@jit
+def ashikhmin_shirley(log_t, log_b, log_scale, weight, diffuse, nu, nv, rd_eff, rs, out):
+    """The whole BRDF ``rd_eff D + S (rs + (1 - rs) w)`` (``D`` the diffuse column)."""
+    log_norm = 0.5 * math.log((nu + 1.0) * (nv + 1.0))
+    for i in range(out.shape[0]):
+        s = fast_exp(log_norm + log_scale[i] + nu * log_t[i] + nv * log_b[i])
+        out[i] = rd_eff * diffuse[i] + s * (rs + (1.0 - rs) * weight[i])
+    return out
+
+
+#: Beckmann's Smith masking over a = 1/(alpha tan theta), see brdffit.kernels.smith.
+SMITH_TABLE = smith_table().ravel()
+
+
+@numba.njit(cache=True, fastmath=True, error_model="numpy")
+def moments(lobe, w, wy_t):
+    """``(S1, S2)`` and ``T1`` (C,) of :mod:`brdffit.kernels.normal`, ``w`` empty for
+    unit weights, ``wy_t`` the weighted targets channel by channel (C, M).
+    Reassociation is allowed here (``fastmath=True``): it lets LLVM vectorise the
+    sums, which only changes their rounding."""
+    c, m = wy_t.shape
+    s1 = s2 = 0.0
+    if w.shape[0] == 0:
+        for i in range(m):
+            s1 += lobe[i]
+            s2 += lobe[i] * lobe[i]
+    else:
+        for i in range(m):
+            s1 += w[i] * lobe[i]
+            s2 += w[i] * lobe[i] * lobe[i]
+    t1 = np.zeros(c)
+    j = 0
+    while j + 3 <= c:  # three channels per pass over the lobe (RGB data: one pass)
+        a = b = d = 0.0
+        r0, r1, r2 = wy_t[j], wy_t[j + 1], wy_t[j + 2]
+        for i in range(m):
+            a += r0[i] * lobe[i]
+            b += r1[i] * lobe[i]
+            d += r2[i] * lobe[i]
+        t1[j], t1[j + 1], t1[j + 2] = a, b, d
+        j += 3
+    for k in range(j, c):
+        total = 0.0
+        row = wy_t[k]
+        for i in range(m):
+            total += row[i] * lobe[i]
+        t1[k] = total
+    return s1, s2, t1

@@ -1,0 +1,67 @@
+"""The variable projection's normal equations from one compiled pass
+(brdffit.kernels.normal) equal those of the stacked design matrix."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import make_data
+
+from brdffit import kernels
+from brdffit.fitting.problem import Problem
+
+pytestmark = pytest.mark.skipif(
+    not kernels.available(), reason="numba is not installed: no compiled kernels to test"
+)
+
+
+@pytest.fixture(autouse=True)
+def compiled_for_every_size():
+    """By default the kernels run from kernels.MIN_PAIRS pairs; these tests use fewer."""
+    with kernels.use(True):
+        yield
+
+
+def _data(model: str, n: int, seed: int):
+    """Three channels: the model's defaults with its linear parameters per channel."""
+    from brdffit.models import get_model
+
+    params = get_model(model).defaults()
+    for p in get_model(model).linear_params:
+        params[p.name] = params[p.name] * np.array([1.0, 0.7, 0.4])
+    return make_data(model, params, n=n, noise=0.02, seed=seed, channels=["r", "g", "b"])
+
+
+def _solve_both(problem: Problem, x):
+    with kernels.use(True):
+        compiled = problem.solve(x)
+    with kernels.use(False):
+        stacked = problem.solve(x)
+    return compiled, stacked
+
+
+@pytest.mark.parametrize(
+    ("model", "weights"),
+    [("ggx", None), ("cook_torrance", "samples"), ("blinn", None), ("lambert", None)],
+)
+def test_compiled_normal_equations_give_the_stacked_solution(model, weights):
+    data = _data(model, 3000, 5)
+    w = None if weights is None else np.random.default_rng(2).uniform(0.2, 3.0, data.n)
+    problem = Problem(data, model, weights=w)
+    rng = np.random.default_rng(9)
+    for _ in range(5):
+        x = rng.uniform(problem.lower, problem.upper)
+        compiled, stacked = _solve_both(problem, x)
+        np.testing.assert_allclose(compiled.coefs, stacked.coefs, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(compiled.loss, stacked.loss, rtol=1e-9)
+
+
+def test_the_compiled_pass_is_taken_only_where_it_applies():
+    data = _data("ggx", 2000, 1)
+    m = data.n
+    assert Problem(data, "ggx")._compiled_normal([1.0, np.ones(m)], None) is not None
+    # a non-quadratic loss, an offset, or two array columns: the stacked design
+    assert Problem(data, "ggx", loss="log")._compiled_normal([1.0, np.ones(m)], None) is None
+    offset = np.zeros((m, 3))
+    assert Problem(data, "ggx")._compiled_normal([1.0, np.ones(m)], offset) is None
+    assert Problem(data, "ggx")._compiled_normal([np.ones(m)] * 2, None) is None

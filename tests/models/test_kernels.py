@@ -1,0 +1,176 @@
+"""The compiled kernels (brdffit.kernels): their pieces against libm and scipy, and
+every compiled model against its numpy design over its whole parameter box.
+
+The models' reference tests (test_models_*.py, test_model_invariants.py) also run
+on both paths (the ``evaluation_path`` fixture of conftest.py)."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import hemisphere_pairs, random_params, stable_seed
+from scipy.special import erf
+
+from brdffit import kernels
+from brdffit.data.geometry import Geometry
+from brdffit.models import get_model
+
+pytestmark = pytest.mark.skipif(
+    not kernels.available(), reason="numba is not installed: no compiled kernels to test"
+)
+
+
+@pytest.fixture(autouse=True)
+def compiled_for_every_size():
+    """By default the kernels run from kernels.MIN_PAIRS pairs; these tests use fewer."""
+    with kernels.use(True):
+        yield
+
+
+#: fast_exp flushes results below exp(-708) to 0 (see its docstring).
+FLUSH = math.exp(-708.0)
+
+
+def test_fast_exp_is_accurate_to_rounding_and_flushes_below_its_minimum():
+    import numba
+
+    from brdffit.kernels._compile import EXP_MIN, FLAGS, fast_exp
+
+    @numba.njit(fastmath=FLAGS)
+    def run(x, out):
+        for i in range(x.shape[0]):
+            out[i] = fast_exp(x[i])
+        return out
+
+    x = np.concatenate([np.random.default_rng(1).uniform(-720.0, 0.0, 200_000), [0.0, -1e-300]])
+    got = run(x, np.empty_like(x))
+    normal = x >= EXP_MIN
+    rel = np.abs(got[normal] / np.exp(x[normal]) - 1.0)
+    assert rel.max() < 3e-16, rel.max()
+    assert (got[~normal] == 0.0).all() and (~normal).sum() > 1000
+
+
+def test_the_smith_table_of_beckmann_matches_erf():
+    from brdffit.kernels.smith import A_MAX, DEGREE, PIECES, WIDTH, table
+
+    coefficients = table()
+    assert coefficients.shape == (PIECES, DEGREE + 1) and PIECES * WIDTH == A_MAX
+    a = np.linspace(1e-9, A_MAX - 1e-12, 200_001)
+    j = np.minimum((a / WIDTH).astype(int), PIECES - 1)
+    x = (a - j * WIDTH) * (2.0 / WIDTH) - 1.0
+    q = np.zeros_like(a)
+    for k in range(DEGREE, -1, -1):
+        q = q * x + coefficients[j, k]
+    expected = 2.0 / (1.0 + erf(a) + np.exp(-a * a) / (a * math.sqrt(math.pi)))
+    assert np.max(np.abs(a * q / expected - 1.0)) < 3e-15
+
+
+@pytest.mark.parametrize("name", kernels.COMPILED_MODELS)
+def test_every_named_model_is_bound_to_its_kernel(name):
+    from brdffit.kernels.bind import CompiledDesign
+
+    design = get_model(name).design
+    assert isinstance(design, CompiledDesign)
+    assert not isinstance(design.reference, CompiledDesign)
+
+
+def _relative(got, expected) -> float:
+    got, expected = np.broadcast_arrays(np.asarray(got, float), np.asarray(expected, float))
+    big = np.abs(expected) > FLUSH * 1e3
+    assert (np.abs(got[~big] - expected[~big]) <= 1e3 * FLUSH).all()
+    return float(np.max(np.abs(got[big] / expected[big] - 1.0), initial=0.0))
+
+
+@pytest.mark.parametrize("name", kernels.COMPILED_MODELS)
+def test_compiled_design_and_evaluation_equal_numpy_across_the_parameter_box(name):
+    """Random parameters over the whole box (log-uniform where searched so) and its
+    corners, on pairs including grazing ones: columns, offset and values agree with
+    the numpy design to 1e-11 relative (exponents reach several hundred; one ulp of
+    an exponent of 700 is a relative 1e-13 in the value)."""
+    model = get_model(name)
+    wi, wo = hemisphere_pairs(2000, seed=stable_seed(name))
+    geometry = Geometry(wi, wo)
+    rng = np.random.default_rng(stable_seed(name))
+    sets = [random_params(model, rng) for _ in range(20)]
+    sets += [random_params(model, rng, corner) for corner in ("lower", "upper")]
+    for params in sets:
+        params = model.check_params(params)
+        shape = {p.name: params[p.name] for p in model.shape_params}
+        compiled = model.design(geometry, shape)
+        with kernels.use(False):
+            reference = model.design(geometry, shape)
+            expected = model.evaluate_prepared(geometry, params)
+        for got, want in zip(compiled.columns, reference.columns):
+            assert _relative(got, want) < 1e-11, params
+        if reference.offset is not None:
+            assert _relative(compiled.offset, reference.offset) < 1e-11, params
+        assert _relative(model.evaluate_prepared(geometry, params), expected) < 1e-11, params
+
+
+@pytest.mark.parametrize("name", ["ggx", "ashikhmin_shirley"])
+def test_per_channel_coefficients_combine_the_compiled_columns(name):
+    model = get_model(name)
+    wi, wo = hemisphere_pairs(500, seed=3)
+    params = model.defaults()
+    first = model.linear_params[0].name
+    params[first] = np.array([0.1, 0.2, 0.3])
+    got = model.evaluate(wi, wo, params)
+    with kernels.use(False):
+        expected = model.evaluate(wi, wo, params)
+    assert got.shape == (wi.shape[0], 3)
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=FLUSH)
+
+
+def test_the_environment_switches_the_kernels_off():
+    root = Path(__file__).resolve().parents[2]
+    code = "from brdffit import kernels; print(kernels.enabled())"
+    env = {**os.environ, "PYTHONPATH": str(root), "BRDFFIT_KERNELS": "0"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.stdout.strip() == "False", out.stderr
+    with kernels.use(False):
+        assert not kernels.enabled() and not kernels.wanted(10**6)
+    with kernels.use(None):
+        assert kernels.enabled() and kernels.wanted(kernels.MIN_PAIRS)
+        assert not kernels.wanted(kernels.MIN_PAIRS - 1)
+
+
+def test_a_numba_that_fails_to_import_leaves_the_numpy_formulas(monkeypatch):
+    """A broken numba (one that does not support the installed numpy, say) warns once
+    and the models evaluate as without it."""
+    model = get_model("ggx")
+    wi, wo = hemisphere_pairs(200, seed=4)
+    with kernels.use(False):
+        expected = model.evaluate(wi, wo, model.defaults())
+    monkeypatch.delitem(kernels._state, "loaded", raising=False)
+    monkeypatch.delattr(kernels, "loops", raising=False)
+    monkeypatch.setitem(sys.modules, "brdffit.kernels.loops", None)  # import fails
+    with pytest.warns(RuntimeWarning, match="compiled kernels are off"):
+        assert not kernels.wanted(10**6)
+    assert not kernels.wanted(10**6)  # once: no second warning, still off
+    np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
+
+
+@pytest.mark.parametrize("name", kernels.COMPILED_MODELS)
+def test_a_batch_of_shapes_gives_each_rows_design(name):
+    """The posterior sampler asks for the designs of all walkers at once, shape
+    parameters of shape (W, 1): row w of each column is the design at row w."""
+    model = get_model(name)
+    wi, wo = hemisphere_pairs(300, seed=6)
+    geometry = Geometry(wi, wo)
+    rng = np.random.default_rng(stable_seed(name))
+    rows = [random_params(model, rng) for _ in range(4)]
+    names = [p.name for p in model.shape_params]
+    batch = {k: np.array([[r[k]] for r in rows]) for k in names}
+    design = model.design(geometry, batch)
+    for w, row in enumerate(rows):
+        with kernels.use(False):
+            expected = model.design(geometry, {k: row[k] for k in names})
+        for got, want in zip(design.columns, expected.columns):
+            got = got[w] if np.ndim(got) == 2 else got
+            assert _relative(got, want) < 1e-11
