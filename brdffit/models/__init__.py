@@ -8,7 +8,9 @@ from ..errors import ModelError
 from ..kernels import install as install_kernels
 from . import (
     anisotropic,
+    anisotropic_shapes,
     empirical,
+    empirical_beyond,
     microfacet,
     mitsuba_plastic,
     mitsuba_principled,
@@ -24,9 +26,11 @@ REGISTRY: dict[str, Model] = {
     m.name: m
     for m in (
         *empirical.MODELS,
+        *empirical_beyond.MODELS,
         *microfacet.MODELS,
         *renderers.MODELS,
         *anisotropic.MODELS,
+        *anisotropic_shapes.MODELS,
         *wave.MODELS,
         *renderer_native.MODELS,  # the renderers' own models, for exact exports
         *mitsuba_plastic.MODELS,
