@@ -34,7 +34,6 @@ directional albedo <= 1, by dropping the draws that exceed it
 
 from __future__ import annotations
 
-import difflib
 import math
 import time
 from collections.abc import Callable
@@ -45,7 +44,6 @@ import numpy as np
 from ..errors import FitError
 from ..fitting.noise import NoiseModel
 from ..fitting.problem import Problem
-from ..fitting.result import FitResult
 from ..words import plural
 from .chain import (
     TOL,
@@ -56,6 +54,7 @@ from .chain import (
     start_walkers,
 )
 from .energy import restrict_to_energy
+from .options import _check_options
 from .result import NOISE_MEANING, Posterior
 from .target import NOISE_MODELS, Target
 
@@ -69,76 +68,6 @@ CONDITIONAL = (
 )
 #: Independent draws when there is nothing to sample by MCMC (no shape parameter, noise given).
 IID_DRAWS = 4000
-
-
-# ------------------------------------------------------------------- options
-def _check_options(
-    data, fit_result, walkers, steps, max_steps, max_seconds, seed, noise, progress, unknown
-):
-    if unknown:
-        name = next(iter(unknown))
-        close = difflib.get_close_matches(name, _OPTIONS, n=1)
-        hint = f" (did you mean {close[0]}?)" if close else ""
-        raise FitError(
-            f"{name!r} is not an option of sample_posterior{hint}; the options are "
-            f"{', '.join(_OPTIONS)}",
-            name,
-        )
-    if not isinstance(fit_result, FitResult):
-        raise FitError("fit_result must be the FitResult that brdffit.fit returned", "fit_result")
-    if data.n != fit_result.n_samples or tuple(data.channels) != tuple(fit_result.channels):
-        raise FitError(
-            f"the data ({data.n} samples, channels {list(data.channels)}) are not those of the "
-            f"fit ({fit_result.n_samples} samples, channels {list(fit_result.channels)})",
-            "data",
-        )
-    _whole(walkers, "walkers", 1)
-    if steps != "auto":
-        _whole(steps, "steps", 1, "or 'auto'")
-    _whole(max_steps, "max_steps", 1)
-    ok = max_seconds is None or (
-        isinstance(max_seconds, (int, float))
-        and not isinstance(max_seconds, bool)
-        and max_seconds > 0
-        and math.isfinite(max_seconds)
-    )
-    if not ok:
-        raise FitError(
-            f"max_seconds={max_seconds!r} must be a positive number of seconds or None",
-            "max_seconds",
-        )
-    if seed is not None:
-        _whole(seed, "seed", 0)
-    if noise is None:
-        noise = _default_noise(data, fit_result)
-    if noise not in NOISE_MODELS:
-        raise FitError(f"noise={noise!r} must be one of {', '.join(NOISE_MODELS)}", "noise")
-    if noise == "given" and data.sigma is None:
-        raise FitError(
-            "noise='given' needs per-sample sigma in the data; these have none "
-            "(use noise='absolute' or 'relative' to estimate it)",
-            "noise",
-        )
-    if progress is not None and not callable(progress):
-        raise FitError("progress must be a callable taking a PosteriorProgress", "progress")
-    return noise
-
-
-def _default_noise(data, fit_result) -> str:
-    """The fit's own noise model: ``mixed`` after a mixed fit, ``given`` with sigma,
-    else ``absolute`` (constant on the loss's transformed values)."""
-    if fit_result.loss_name == "mixed":
-        return "mixed"
-    return "given" if data.sigma is not None else "absolute"
-
-
-def _whole(value, name: str, least: int, alternative: str = ""):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
-        need = f"a whole number >= {least}" + (f" {alternative}" if alternative else "")
-        raise FitError(f"{name}={value!r} must be {need}", name)
-
-
-_OPTIONS = ("walkers", "steps", "max_steps", "max_seconds", "seed", "noise", "progress")
 
 
 # ---------------------------------------------------------------------- main
@@ -194,18 +123,28 @@ def sample_posterior(
     seed = int(fit_result.options.get("seed", 0) if seed is None else seed)
     deadline = t0 + max_seconds if max_seconds is not None else float("inf")
     problem, target = _target(data, fit_result, noise, walkers)
-    rng = np.random.default_rng([seed, 7])
     run = (steps, max_steps, deadline, seed, progress, t0)
+    common, info, note, kept_fraction = _draws(fit_result, problem, target, walkers, run)
+    common.update(noise=noise, n_walkers=walkers, seed=seed)
+    seconds = time.perf_counter() - t0
+    return _posterior(common, info, max_seconds, seconds, note, kept_fraction)
+
+
+def _draws(fit_result, problem, target, walkers: int, run: tuple):
+    """The kept draws as the Posterior records them (with the chain), the run's
+    diagnostics, the note on the draws (the energy restriction's, and that they are
+    conditional on the model after a misfit) and the fraction the restriction kept."""
+    deadline, seed = run[2], run[3]
+    rng = np.random.default_rng([seed, 7])
     theta, chain, info = _shape_draws(target, walkers, rng, run)
-    theta, coefs, energy_note, kept_fraction = _coefficient_draws(
+    theta, coefs, note, kept_fraction = _coefficient_draws(
         fit_result, problem, target, theta, rng, deadline
     )
     common = _common(problem, target, theta, coefs)
-    common.update(noise=noise, chain=chain, n_walkers=walkers, seed=seed)
-    seconds = time.perf_counter() - t0
+    common["chain"] = chain
     if fit_result.misfit and fit_result.misfit.get("detected"):
-        energy_note = "; ".join(x for x in (energy_note, CONDITIONAL) if x)
-    return _posterior(common, info, max_seconds, seconds, energy_note, kept_fraction)
+        note = "; ".join(x for x in (note, CONDITIONAL) if x)
+    return common, info, note, kept_fraction
 
 
 def _common(problem, target, theta, coefs) -> dict:

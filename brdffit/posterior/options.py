@@ -1,0 +1,85 @@
+"""The checks of :func:`~brdffit.posterior.sample.sample_posterior`'s options: each
+bad option fails with a :class:`~brdffit.errors.FitError` naming it, the value and
+what is needed; the default noise model is the fit's own.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+
+import numpy as np
+
+from ..errors import FitError
+from ..fitting.result import FitResult
+from .target import NOISE_MODELS
+
+__all__: list[str] = []
+
+_OPTIONS = ("walkers", "steps", "max_steps", "max_seconds", "seed", "noise", "progress")
+
+
+def _check_options(
+    data, fit_result, walkers, steps, max_steps, max_seconds, seed, noise, progress, unknown
+):
+    if unknown:
+        name = next(iter(unknown))
+        close = difflib.get_close_matches(name, _OPTIONS, n=1)
+        hint = f" (did you mean {close[0]}?)" if close else ""
+        raise FitError(
+            f"{name!r} is not an option of sample_posterior{hint}; the options are "
+            f"{', '.join(_OPTIONS)}",
+            name,
+        )
+    if not isinstance(fit_result, FitResult):
+        raise FitError("fit_result must be the FitResult that brdffit.fit returned", "fit_result")
+    if data.n != fit_result.n_samples or tuple(data.channels) != tuple(fit_result.channels):
+        raise FitError(
+            f"the data ({data.n} samples, channels {list(data.channels)}) are not those of the "
+            f"fit ({fit_result.n_samples} samples, channels {list(fit_result.channels)})",
+            "data",
+        )
+    _whole(walkers, "walkers", 1)
+    if steps != "auto":
+        _whole(steps, "steps", 1, "or 'auto'")
+    _whole(max_steps, "max_steps", 1)
+    ok = max_seconds is None or (
+        isinstance(max_seconds, (int, float))
+        and not isinstance(max_seconds, bool)
+        and max_seconds > 0
+        and math.isfinite(max_seconds)
+    )
+    if not ok:
+        raise FitError(
+            f"max_seconds={max_seconds!r} must be a positive number of seconds or None",
+            "max_seconds",
+        )
+    if seed is not None:
+        _whole(seed, "seed", 0)
+    if noise is None:
+        noise = _default_noise(data, fit_result)
+    if noise not in NOISE_MODELS:
+        raise FitError(f"noise={noise!r} must be one of {', '.join(NOISE_MODELS)}", "noise")
+    if noise == "given" and data.sigma is None:
+        raise FitError(
+            "noise='given' needs per-sample sigma in the data; these have none "
+            "(use noise='absolute' or 'relative' to estimate it)",
+            "noise",
+        )
+    if progress is not None and not callable(progress):
+        raise FitError("progress must be a callable taking a PosteriorProgress", "progress")
+    return noise
+
+
+def _default_noise(data, fit_result) -> str:
+    """The fit's own noise model: ``mixed`` after a mixed fit, ``given`` with sigma,
+    else ``absolute`` (constant on the loss's transformed values)."""
+    if fit_result.loss_name == "mixed":
+        return "mixed"
+    return "given" if data.sigma is not None else "absolute"
+
+
+def _whole(value, name: str, least: int, alternative: str = ""):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+        need = f"a whole number >= {least}" + (f" {alternative}" if alternative else "")
+        raise FitError(f"{name}={value!r} must be {need}", name)
