@@ -70,6 +70,7 @@ from scipy.special import log_ndtr
 
 from ..errors import FitError
 from ..fitting.losses import LossContext
+from .design import batched_design, batches_agree, dense, looped_design
 from .truncnorm import LOG_2PI, draw_box_gaussian, log_mass
 
 __all__ = ["Target", "NOISE_MODELS"]
@@ -81,10 +82,6 @@ BATCH = 64
 RIDGE = 1e-12
 #: Decades either side of the fit's residual scale that the noise prior spans.
 NOISE_DECADES = 3.0
-
-
-class _NotBatched(Exception):
-    """The model's design does not broadcast over a batch of shape values."""
 
 
 class Target:
@@ -199,84 +196,12 @@ class Target:
         shapes = self.shape_values(
             rng.uniform(self.problem.lower, self.problem.upper, (3, self.n_shape))
         )
-        try:
-            batched = self._design_batched(shapes)
-        except Exception:  # any failure on arrays means: evaluate one walker at a time
-            return False
-        looped = self._design_loop(shapes)
-        m, c = self.problem.geometry.m, self.problem.n_channels
-        for one, two in zip((*batched[0], batched[1]), (*looped[0], looped[1])):
-            if (one is None) != (two is None):
-                return False
-            if one is not None:
-                one, two = _dense(one, 3, m, c), _dense(two, 3, m, c)
-                if one.shape != two.shape or not np.allclose(one, two, 1e-10, 0, equal_nan=True):
-                    return False
-        return True
-
-    def _fixed_shape(self) -> dict:
-        p = self.problem
-        return {q.name: p.fixed[q.name] for q in p.model.shape_params if q.name in p.fixed}
-
-    def _design_batched(self, shapes: np.ndarray):
-        w, m = len(shapes), self.problem.geometry.m
-        params = {q.name: shapes[:, i : i + 1] for i, q in enumerate(self.shape_params)}
-        design = self.problem.model.design(
-            self.problem.geometry, {**params, **self._fixed_shape()}
-        )
-        for part in (*design.columns, design.offset):
-            if part is not None and np.ndim(part) != 0 and np.shape(part) not in ((m,), (w, m)):
-                raise _NotBatched
-        cols = [float(col) if np.ndim(col) == 0 else np.asarray(col) for col in design.columns]
-        return self._assemble(cols, design.offset)
-
-    def _design_loop(self, shapes: np.ndarray):
-        p, g = self.problem, self.problem.geometry
-        designs = []
-        for row in shapes:
-            params = {q.name: float(v) for q, v in zip(self.shape_params, row)}
-            designs.append(p.model.design(g, {**params, **self._fixed_shape()}))
-        two_d = any(np.ndim(x) == 2 for d in designs for x in (*d.columns, d.offset))
-
-        def stack(parts):
-            if all(np.ndim(x) == 0 for x in parts) and len({float(x) for x in parts}) == 1:
-                return float(parts[0])
-            dense = [
-                np.broadcast_to(np.asarray(x, dtype=float), (g.m,)) if np.ndim(x) < 2 else x
-                for x in parts
-            ]
-            if two_d:
-                dense = [x[:, None] * np.ones(p.n_channels) if x.ndim == 1 else x for x in dense]
-            return np.stack(dense)
-
-        cols = [stack([d.columns[j] for d in designs]) for j in range(len(designs[0].columns))]
-        offsets = [d.offset for d in designs]
-        offset = (
-            None
-            if all(o is None for o in offsets)
-            else stack([0.0 if o is None else o for o in offsets])
-        )
-        return self._assemble(cols, offset)
-
-    def _assemble(self, cols, offset):
-        """The free columns, and the offset with the fixed coefficients' columns added.
-
-        A column is a float (constant), an (M,) array (the same for every walker),
-        (W, M), or (W, M, C) when it differs per channel. The offset is None,
-        (M,), (W, M) or (W, M, C).
-        """
-        p = self.problem
-        for i, name in zip(p.fixed_index, p.fixed_coefs):
-            value = np.asarray(p.fixed[name], dtype=float)
-            col = np.asarray(cols[i], dtype=float)
-            term = col[..., None] * value if value.ndim else col * float(value)
-            offset = term if offset is None else _add(np.asarray(offset, dtype=float), term)
-        return [cols[i] for i in p.coef_index], offset
+        return batches_agree(self.problem, self.shape_params, shapes)
 
     def designs(self, shapes: np.ndarray):
         if self.batched:
-            return self._design_batched(shapes)
-        return self._design_loop(shapes)
+            return batched_design(self.problem, self.shape_params, shapes)
+        return looped_design(self.problem, self.shape_params, shapes)
 
     # ------------------------------------------------------------ statistics
     def _stats(self, shapes: np.ndarray):
@@ -290,7 +215,7 @@ class Target:
             wr = None
             yy = np.broadcast_to(self.yy, (w_count, c))
         else:
-            resid = self.y - _dense(offset, w_count, m, c)
+            resid = self.y - dense(offset, w_count, m, c)
             wr = self.w * resid
             yy = np.einsum("wmc,wmc->wc", wr, resid)
         gram = np.empty((w_count, c, k, k))
@@ -394,18 +319,3 @@ class Target:
                 beta, cov, self.coef_lower, self.coef_upper, rng, self.rows, self.bounds
             )
         return out
-
-
-def _add(a, b):
-    """Sum of two offsets; an (M,) or (W, M) one is broadcast over channels of a (W, M, C) one."""
-    if a.ndim != b.ndim and 3 in (a.ndim, b.ndim):
-        a, b = (a, b[..., None]) if a.ndim == 3 else (a[..., None], b)
-    return a + b
-
-
-def _dense(x, w: int, m: int, c: int) -> np.ndarray:
-    """A column or offset as a (W, M, C) array (a view where broadcasting allows)."""
-    x = np.asarray(x, dtype=float)
-    if x.ndim == 3:
-        return x
-    return np.broadcast_to(np.broadcast_to(x, (w, m))[..., None], (w, m, c))
