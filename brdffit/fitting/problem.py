@@ -4,9 +4,9 @@
 It holds the geometry of the data (prepared once), the search space of the
 free shape parameters (log10 for log-scale ones, bounds from the registry),
 and for any point of that space it solves the linear coefficients (kd, ks...
-per channel) by bounded least squares (:mod:`brdffit.fitting.linear`) and returns the
-exact loss. The optimiser therefore searches only the few shape parameters,
-shared by all channels.
+per channel) by bounded least squares (:mod:`brdffit.fitting.solve`, over
+:mod:`brdffit.fitting.linear`) and returns the exact loss. The optimiser therefore
+searches only the few shape parameters, shared by all channels.
 """
 
 from __future__ import annotations
@@ -21,24 +21,19 @@ from ..errors import FitError, ParameterError
 from ..kernels import normal as kernels_normal
 from ..models import get_model
 from ..words import plural
-from .linear import Normal, normal_equations, solve_bounded, weighted_target
+from .linear import Normal, weighted_target
 from .losses import LossContext, get_loss
+from .solve import (
+    BAD_LOSS,
+    Solution,
+    as_2d,
+    compact_weights,
+    solve_linear,
+    solve_normal,
+    stack_columns,
+)
 
 __all__ = ["Problem", "Solution"]
-
-#: Gauss-Newton passes for losses whose transform is not linear (log, cbrt).
-NONLINEAR_PASSES = 3
-#: What the objective returns where the model is not finite: nlopt must never see NaN.
-BAD_LOSS = 1e300
-
-
-class Solution:
-    """The result of the objective at one point: shape, coefficients (C, K), loss."""
-
-    __slots__ = ("coefs", "loss", "shape")
-
-    def __init__(self, shape, coefs, loss):
-        self.shape, self.coefs, self.loss = shape, coefs, loss
 
 
 class Problem:
@@ -192,7 +187,7 @@ class Problem:
         self.invalid_loss = 0.0
         if self.invalid_y is not None and self.invalid_y.size:
             self.invalid_loss = self._invalid_contribution(y_all, sigma, w, valid, noise)
-        self.w_lin, self.z_lin = _compact_weights(*self.loss.linearised(self.y, self.ctx))
+        self.w_lin, self.z_lin = compact_weights(*self.loss.linearised(self.y, self.ctx))
         # For quadratic losses the target never changes: W y and y'Wy are reused
         # by every evaluation of a model without an offset.
         self._weighted = weighted_target(self.z_lin, self.w_lin) if self.loss.linear else None
@@ -266,17 +261,17 @@ class Problem:
         design = self.model.design(self.geometry, shape)
         m, c = self.y.shape
         cols = [self._full(col) for col in design.columns]
-        offset = None if design.offset is None else _as_2d(design.offset)
+        offset = None if design.offset is None else as_2d(design.offset)
         for i, name in zip(self.fixed_index, self.fixed_coefs):
-            term = _as_2d(cols[i]) * np.asarray(self.fixed[name], dtype=float)
+            term = as_2d(cols[i]) * np.asarray(self.fixed[name], dtype=float)
             offset = term if offset is None else offset + term
         free = [cols[i] for i in self.coef_index]
         constraints = self._constraints_for(shape)
         normal = self._compiled_normal([design.columns[i] for i in self.coef_index], offset)
         try:
             if normal is not None:
-                return self._solve_normal(shape, normal, constraints)
-            return self._solve_linear(shape, _stack(free, m, c), offset, constraints)
+                return solve_normal(self, shape, normal, constraints)
+            return solve_linear(self, shape, stack_columns(free, m, c), offset, constraints)
         except np.linalg.LinAlgError:
             # No coefficients satisfy the constraints at this shape (energy
             # conservation with a too bright offset): infeasible, never NaN.
@@ -296,25 +291,6 @@ class Problem:
         )
         return np.vstack([a0, rows]), b
 
-    def _solve_linear(self, shape, a, offset, constraints) -> Solution:
-        """Coefficients under ``constraints`` (rows of this call) and the loss."""
-        if self.loss.linear:
-            # For quadratic losses the weighted residual sum of squares of the
-            # linear solve is the loss: no prediction needs to be formed.
-            coefs, rss = self._least_squares(a, offset, self.w_lin, self.z_lin, constraints)
-            loss = (float(rss.sum()) + self.invalid_loss) / self.norm
-        else:
-            w, z = self.w_lin, self.z_lin
-            for _ in range(NONLINEAR_PASSES):
-                coefs, _ = self._least_squares(a, offset, w, z, constraints)
-                pred = _predict(a, offset, coefs, *self.y.shape)
-                w, z = _compact_weights(*self.loss.linearised(pred, self.ctx))
-            loss = self.loss.value(pred, self.ctx) * self.loss.norm(self.ctx)
-            loss = (loss + self.invalid_loss) / self.norm
-        if not np.isfinite(loss):
-            loss = BAD_LOSS
-        return Solution(shape, coefs, loss)
-
     def _compiled_normal(self, free, offset):
         """The normal equations in one compiled pass over the columns, without stacking
         them (:mod:`brdffit.kernels.normal`), where that applies (a quadratic loss, no
@@ -324,22 +300,6 @@ class Problem:
         return kernels_normal.normal_equations(
             free, self.z_lin, self.w_lin, self._weighted, Normal
         )
-
-    def _solve_normal(self, shape, normal, constraints) -> Solution:
-        """Coefficients and loss from ready normal equations (a quadratic loss)."""
-        coefs, rss = solve_bounded(normal, self.coef_lower, self.coef_upper, constraints)
-        loss = (float(rss.sum()) + self.invalid_loss) / self.norm
-        return Solution(shape, coefs, loss if np.isfinite(loss) else BAD_LOSS)
-
-    def _least_squares(self, a, offset, w, z, constraints):
-        c = z.shape[1]
-        target = z if offset is None else z - offset
-        reuse = self._weighted if (offset is None and z is self.z_lin) else None
-        if a is None:
-            _, yy = reuse if reuse is not None else weighted_target(target, w)
-            return np.zeros((c, 0)), yy
-        normal = normal_equations(a, target, w, reuse)
-        return solve_bounded(normal, self.coef_lower, self.coef_upper, constraints)
 
     def _full(self, col):
         """A column as an (M,) array; constant columns are cached per value."""
@@ -381,35 +341,6 @@ class Problem:
         if values.ndim == 1:
             values = np.repeat(values[:, None], self.n_channels, axis=1)
         return values
-
-
-def _predict(a, offset, coefs, m, c):
-    if a is None:
-        return np.broadcast_to(0.0 if offset is None else offset, (m, c)).copy()
-    pred = np.einsum("mkc,ck->mc", a, coefs) if a.ndim == 3 else a @ coefs.T
-    return pred if offset is None else pred + offset
-
-
-def _compact_weights(w: np.ndarray, z: np.ndarray):
-    """Weights that are the same for every channel as (M,), all ones as None: the
-    normal equations are then much cheaper to build."""
-    if w.ndim == 2 and (w.shape[1] == 1 or np.array_equal(w, np.broadcast_to(w[:, :1], w.shape))):
-        w = w[:, 0]
-    if w.ndim == 1 and np.all(w == 1.0):
-        w = None
-    return w, z
-
-
-def _as_2d(a):
-    return a if np.ndim(a) == 2 else np.asarray(a)[:, None]
-
-
-def _stack(cols, m, c):
-    if not cols:
-        return None
-    if any(np.ndim(col) == 2 for col in cols):
-        return np.stack([np.broadcast_to(_as_2d(col), (m, c)) for col in cols], axis=1)
-    return np.stack(cols, axis=1)
 
 
 def _squeeze(v: np.ndarray):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from helpers import make_data, random_params
 
-import brdffit.fitting.problem as problem_module
+import brdffit.fitting.solve as solve_module
 from brdffit import get_model, synthesize
 from brdffit.fitting.problem import BAD_LOSS, Problem
 from brdffit.models import REGISTRY
@@ -51,13 +51,13 @@ def test_a_problem_shared_by_two_threads_gives_the_single_threaded_answers(monke
     assert not np.allclose(expected[0].coefs, expected[1].coefs)
     rows = [problem.energy.rows(problem.shape_from_x(x)) for x in points]
     assert not np.allclose(rows[0][0], rows[1][0])  # the two calls' constraints differ
-    real = problem_module.normal_equations
+    real = solve_module.normal_equations
 
     def slow(*args, **kwargs):
         time.sleep(0.002)  # releases the GIL: the other thread runs here
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(problem_module, "normal_equations", slow)
+    monkeypatch.setattr(solve_module, "normal_equations", slow)
     found: list[list] = [[], []]
 
     def work(i: int):
