@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from brdffit import Measurements, get_model
+from brdffit import Measurements, get_model, kernels
 from brdffit.data.geometry import directions_from_angles
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -99,3 +99,35 @@ def make_data(model, params, n=1500, noise=0.01, seed=0, channels=None):
         )
         channels = [f"{w:.6g}nm" for w in nm]
     return Measurements(wi, wo, y, channels=channels)
+
+
+def mitsuba_eval(bsdf, wi, wo):
+    """Mitsuba 3's ``bsdf.eval`` (scalar_rgb; f cos(theta_o), RGB) at each pair of unit
+    vectors of the local frame; ``bsdf`` is a loaded BSDF or a dict for ``load_dict``.
+    Skips the test when Mitsuba is absent."""
+    mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 (pip install mitsuba) is absent")
+    if isinstance(bsdf, dict):
+        mi.set_variant("scalar_rgb")
+        bsdf = mi.load_dict(bsdf)
+    ctx = mi.BSDFContext()
+    out = []
+    for a, b in zip(wi, wo):
+        si = mi.SurfaceInteraction3f()
+        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+        si.wi = mi.Vector3f(*a)
+        out.append(list(bsdf.eval(ctx, si, mi.Vector3f(*b))))
+    return np.array(out)
+
+
+#: Skip a module of compiled-kernel tests when numba is absent.
+NEEDS_KERNELS = pytest.mark.skipif(
+    not kernels.available(),
+    reason="numba is not installed: no compiled kernels to test",
+)
+
+
+@pytest.fixture
+def compiled_for_every_size():
+    """By default the kernels run from kernels.MIN_PAIRS pairs; these tests use fewer."""
+    with kernels.use(True):
+        yield

@@ -10,7 +10,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
-from helpers import hemisphere_pairs
+from helpers import hemisphere_pairs, mitsuba_eval
 
 import brdffit
 from brdffit import ParameterError, export, export_targets, get_model
@@ -36,18 +36,6 @@ def plastic():
 def brushed():
     params = {"kd": [0.02] * 3, "ks": [0.9, 0.6, 0.5], "alpha_u": 0.1, "alpha_v": 0.3, "f0": 1.0}
     return fitted("ggx_anisotropic", params)
-
-
-def mitsuba_eval(bsdf, wi, wo):
-    mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 (pip install mitsuba) is absent")
-    ctx = mi.BSDFContext()
-    out = []
-    for a, b in zip(wi, wo):
-        si = mi.SurfaceInteraction3f()
-        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
-        si.wi = mi.Vector3f(*a)
-        out.append(list(bsdf.eval(ctx, si, mi.Vector3f(*b))))
-    return np.array(out)
 
 
 def load_mitsuba(e):

@@ -5,21 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import make_data
+from helpers import NEEDS_KERNELS, compiled_for_every_size, make_data  # noqa: F401 (the fixture)
 
 from brdffit import kernels
 from brdffit.fitting.problem import Problem
 
-pytestmark = pytest.mark.skipif(
-    not kernels.available(), reason="numba is not installed: no compiled kernels to test"
-)
-
-
-@pytest.fixture(autouse=True)
-def compiled_for_every_size():
-    """By default the kernels run from kernels.MIN_PAIRS pairs; these tests use fewer."""
-    with kernels.use(True):
-        yield
+pytestmark = [NEEDS_KERNELS, pytest.mark.usefixtures("compiled_for_every_size")]
 
 
 def _data(model: str, n: int, seed: int):

@@ -14,23 +14,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import hemisphere_pairs, random_params, stable_seed
+from helpers import (  # noqa: F401 (the fixture)
+    NEEDS_KERNELS,
+    compiled_for_every_size,
+    hemisphere_pairs,
+    random_params,
+    stable_seed,
+)
 from scipy.special import erf
 
 from brdffit import kernels
 from brdffit.data.geometry import Geometry
 from brdffit.models import get_model
 
-pytestmark = pytest.mark.skipif(
-    not kernels.available(), reason="numba is not installed: no compiled kernels to test"
-)
-
-
-@pytest.fixture(autouse=True)
-def compiled_for_every_size():
-    """By default the kernels run from kernels.MIN_PAIRS pairs; these tests use fewer."""
-    with kernels.use(True):
-        yield
+pytestmark = [NEEDS_KERNELS, pytest.mark.usefixtures("compiled_for_every_size")]
 
 
 #: fast_exp flushes results below exp(-708) to 0 (see its docstring).

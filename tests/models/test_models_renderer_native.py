@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import hemisphere_pairs
+from helpers import hemisphere_pairs, mitsuba_eval
 
 from brdffit import get_model
 
@@ -132,20 +132,6 @@ def test_anisotropy_rotation_turns_the_highlight_about_the_normal():
 
 
 # ------------------------------------------------------ Mitsuba, where installed
-def mitsuba_eval(bsdf_dict, wi, wo):
-    mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 (pip install mitsuba) is not installed")
-    mi.set_variant("scalar_rgb")
-    bsdf = mi.load_dict(bsdf_dict)
-    ctx = mi.BSDFContext()
-    out = []
-    for a, b in zip(wi, wo):
-        si = mi.SurfaceInteraction3f()
-        si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
-        si.wi = mi.Vector3f(*a)
-        out.append(list(bsdf.eval(ctx, si, mi.Vector3f(*b))))
-    return np.array(out)
-
-
 @pytest.mark.parametrize("name, params", [c for c in CASES if c[0].startswith("mitsuba")])
 def test_mitsuba_roughconductor_matches_mitsuba_eval(name, params):
     """Mitsuba's eval is f cos(theta_o) (the cosine of its ``wo`` argument)."""
