@@ -46,7 +46,8 @@ import numpy as np
 
 from ..data.geometry import Geometry
 from ..errors import FitError
-from ..models.properties import ANISOTROPIC_PHI_I, albedo, quadrature_nodes
+from ..models.properties import ANISOTROPIC_PHI_I, albedo
+from ..models.quadrature import quadrature_nodes
 
 __all__ = [
     "ABOVE_TOL",
