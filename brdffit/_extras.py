@@ -20,6 +20,8 @@ EXTRAS = {
     "plot": "plots need",
     "service": "the service needs",
     "colour": "converting spectra to colour needs",
+    "batch": "batch fits need",
+    "export": "a preview of an export needs",
 }
 
 

@@ -19,7 +19,8 @@ from brdffit.errors import MissingExtraError
 ROOT = Path(__file__).resolve().parents[1]
 WARD = ROOT / "data_synthetic" / "ward.csv"
 #: The modules of the extras: none is imported by the core.
-OPTIONAL = ("matplotlib", "corner", "fastapi", "uvicorn", "starlette", "pydantic", "colour")
+OPTIONAL = ("matplotlib", "corner", "fastapi", "uvicorn", "starlette", "pydantic", "colour",
+            "distributed", "dask", "mitsuba", "numba")  # fmt: skip
 
 
 def missing(monkeypatch, *modules: str) -> None:
@@ -106,3 +107,20 @@ def test_importing_brdffit_and_its_command_line_imports_no_optional_module():
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
+
+
+def test_batch_without_dask_is_one_line_naming_the_batch_extra(monkeypatch, capsys, tmp_path):
+    missing(monkeypatch, "distributed")
+    code = main(["batch", str(ROOT / "data_synthetic" / "ward.csv"), "--models", "ward",
+                 "--out", str(tmp_path / "rows.jsonl")])  # fmt: skip
+    _, err = capsys.readouterr()
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "pip install 'brdffit[batch]'" in err
+
+
+def test_export_preview_without_mitsuba_names_the_export_extra(monkeypatch):
+    from brdffit.export.preview import render_preview
+
+    missing(monkeypatch, "mitsuba")
+    with pytest.raises(MissingExtraError, match=r"pip install 'brdffit\[export\]'"):
+        render_preview({"type": "diffuse"}, "unused.png")

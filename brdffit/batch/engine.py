@@ -23,6 +23,7 @@ from contextlib import contextmanager
 import brdffit
 from brdffit.errors import FitError
 
+from .._extras import require
 from .rows import BatchRow, RowError
 from .task import run_pair, unwire
 
@@ -33,13 +34,7 @@ _NOT_OPTIONS = {"data", "model", "uncertainty", "progress"}
 
 
 def _distributed():
-    try:
-        import distributed
-    except ImportError as exc:  # the batch extra is optional
-        raise FitError(
-            "batch fits need Dask distributed: pip install 'brdffit[batch]'", "client"
-        ) from exc
-    return distributed
+    return require("distributed", "batch")  # the batch extra is optional
 
 
 def _workers(workers) -> int:

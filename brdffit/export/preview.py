@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError
+from .._extras import require
 
 __all__ = ["render_preview"]
 
@@ -51,12 +51,7 @@ def render_preview(
     ``measured`` BSDF of that file is rendered beside it (left: export, right:
     measurement), in the same light.
     """
-    try:
-        import mitsuba as mi
-    except ImportError:
-        raise ParameterError(
-            "a preview needs Mitsuba 3: pip install 'brdffit[export]' (or mitsuba)", "preview"
-        ) from None
+    mi = require("mitsuba", "export")
     mi.set_variant("scalar_rgb")
     images = [np.asarray(mi.render(mi.load_dict(_scene(mi, bsdf, size, spp)), seed=seed))]
     if measured is not None:
