@@ -32,7 +32,7 @@ import logging
 import os
 from concurrent.futures import Executor
 
-from brdffit._extras import require
+from brdffit.extras import require
 
 from .jobs import JobRunner, run_job
 from .store import JobStore

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import brdffit
-from brdffit._extras import EXTRAS, require
 from brdffit.cli.main import main
 from brdffit.errors import MissingExtraError
+from brdffit.extras import EXTRAS, require
 
 ROOT = Path(__file__).resolve().parents[1]
 WARD = ROOT / "data_synthetic" / "ward.csv"

@@ -23,7 +23,7 @@ from contextlib import contextmanager
 import brdffit
 from brdffit.errors import FitError
 
-from .._extras import require
+from ..extras import require
 from .rows import BatchRow, RowError
 from .task import run_pair, unwire
 

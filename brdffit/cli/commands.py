@@ -12,8 +12,8 @@ import numpy as np
 
 import brdffit
 
-from .._extras import require
 from ..errors import BrdfFitError
+from ..extras import require
 from ..models.base import HIGHLIGHTS, OPERANDS, ORIGINS, SYMMETRIES
 from .export import export_after_fit
 from .text import evaluate_csv, fit_text, models_text, print_json, progress_for, shout

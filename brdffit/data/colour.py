@@ -55,7 +55,7 @@ E308_STEPS = (1.0, 5.0, 10.0, 20.0)
 def _colour():
     # colour-science (the 'colour' extra) imports in about a second; load it only when
     # colour is asked for
-    from .._extras import require
+    from ..extras import require
 
     return require("colour", "colour")
 

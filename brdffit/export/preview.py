@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._extras import require
+from ..extras import require
 
 __all__ = ["render_preview"]
 

@@ -2,6 +2,6 @@
 :mod:`.corner` for a posterior. Importing this package without matplotlib raises
 :class:`~brdffit.errors.MissingExtraError` naming the extra."""
 
-from .._extras import require
+from ..extras import require
 
 require("matplotlib", "plot")

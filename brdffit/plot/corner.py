@@ -15,8 +15,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .._extras import require
 from ..errors import FitError
+from ..extras import require
 from ..words import plural
 
 __all__ = ["corner_figure", "corner_plot", "trace_plot"]
