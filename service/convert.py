@@ -76,7 +76,9 @@ def measurements(data: DataIn, limit: int, prefix: str = "data") -> tuple:
 def fit_kwargs(options: FitOptions, seconds: float) -> dict:
     """Keyword arguments of ``brdffit.fit``: the options the client set (the library's
     defaults stand for the others), with the time limits capped at ``seconds``."""
-    kwargs = options.model_dump(exclude={"model", "data", "posterior_options"}, exclude_unset=True)
+    kwargs = options.model_dump(
+        exclude={"model", "data", "posterior_options", "export"}, exclude_unset=True
+    )
     kwargs["timeout"] = min(options.timeout or seconds, seconds)
     if options.uncertainty:
         post = options.posterior_options or PosteriorOptions()

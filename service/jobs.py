@@ -33,6 +33,7 @@ from brdffit.jsonable import jsonable
 
 from . import artifacts
 from .errors import ApiError
+from .exports import with_exports
 from .pool import IsolatedPool, WorkerDied
 from .store import JobStore, data_from_bytes
 
@@ -73,6 +74,14 @@ class _Reporter:
         if not self.store.progress(self.job_id, self.attempt, jsonable(report)):
             raise Cancelled("the job was cancelled, deleted or resubmitted")
 
+    def exporting(self, target: str) -> None:
+        """The progress of an export (``export`` option), made after the fit."""
+        if _orphan(self.parent_pid):
+            raise Cancelled("the server process that started this job is gone")
+        report = {"stage": f"export {target}", "seconds": 0.0}
+        if not self.store.progress(self.job_id, self.attempt, report):
+            raise Cancelled("the job was cancelled, deleted or resubmitted")
+
 
 def _orphan(parent_pid: int | None) -> bool:
     """True when the server process that handed out the work is gone."""
@@ -93,6 +102,8 @@ def run_job(store_path: str, job_id: str, attempt: int, parent_pid: int | None =
         store.release(job_id, attempt)
         return "gone"
     model, options, blob = claimed
+    started = time.monotonic()
+    targets = options.pop("export", ())
     reporter = _Reporter(store, job_id, attempt, parent_pid)
     try:
         data = data_from_bytes(blob)
@@ -101,6 +112,8 @@ def run_job(store_path: str, job_id: str, attempt: int, parent_pid: int | None =
             options = {**options, "posterior_options": {**posterior, "progress": reporter}}
         result = brdffit.fit(data, model, progress=reporter, **options)
         artifacts.render(store_path, job_id, result)  # a corner plot, if asked (issue 16)
+        answer = with_exports(jsonable(result.to_dict()), data, targets, started,
+                              options.get("timeout"), reporter.exporting)  # fmt: skip
     except Cancelled:
         return "gone"
     except BrdfFitError as exc:
@@ -112,7 +125,7 @@ def run_job(store_path: str, job_id: str, attempt: int, parent_pid: int | None =
         error = {"field": None, "message": f"internal error: {exc!r}", "kind": "InternalError"}
         store.finish(job_id, attempt, error=error)
         return "failed"
-    return "done" if store.finish(job_id, attempt, result=jsonable(result.to_dict())) else "gone"
+    return "done" if store.finish(job_id, attempt, result=answer) else "gone"
 
 
 def _exit_with_parent(parent_pid: int, every: float = 1.0) -> None:
@@ -204,9 +217,12 @@ class JobRunner:
             _stop(self._executor)
 
 
-def fit_to_dict(data, model: str, kwargs: dict) -> dict:
-    """``brdffit.fit(data, model, **kwargs).to_dict()``, JSON-ready: a synchronous fit."""
-    return jsonable(brdffit.fit(data, model, **kwargs).to_dict())
+def fit_to_dict(data, model: str, kwargs: dict, export=()) -> dict:
+    """``brdffit.fit(data, model, **kwargs).to_dict()``, JSON-ready: a synchronous fit,
+    with the renderer exports of ``export`` made within its time limit."""
+    started = time.monotonic()
+    result = jsonable(brdffit.fit(data, model, **kwargs).to_dict())
+    return with_exports(result, data, export, started, kwargs.get("timeout"))
 
 
 class FitPool:
@@ -221,12 +237,12 @@ class FitPool:
         self.workers = workers
         self._executor = _process_pool(workers) if workers else None
 
-    def run(self, data, model: str, kwargs: dict) -> dict:
+    def run(self, data, model: str, kwargs: dict, export=()) -> dict:
         if self._executor is None:
-            return fit_to_dict(data, model, kwargs)
+            return fit_to_dict(data, model, kwargs, export)
         executor = self._executor
         try:
-            return executor.submit(fit_to_dict, data, model, kwargs).result()
+            return executor.submit(fit_to_dict, data, model, kwargs, export).result()
         except WorkerDied:  # that worker is started anew; the other fits go on
             raise ApiError(503, "the worker running this fit died; try again", None) from None
 

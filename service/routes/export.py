@@ -7,8 +7,6 @@ and channels), the target, and optionally the data: see
 
 from __future__ import annotations
 
-from typing import Any, Literal
-
 from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -17,10 +15,11 @@ import brdffit
 from ..convert import located, measurements
 from ..deps import SettingsDep
 from ..schemas import DataIn, ErrorOut
+from ..schemas.requests import ExportTarget as Target
+from ..schemas.results import ExportOut
 
 __all__ = ["router", "ExportIn", "ExportOut"]
 
-Target = Literal["mitsuba", "mitsuba-xml", "gltf", "openpbr", "pbrt", "blender"]
 ERRORS = {
     413: {"model": ErrorOut, "description": "The body is larger than the server takes."},
     422: {"model": ErrorOut, "description": "Input that cannot be used; `field` says which."},
@@ -60,31 +59,6 @@ class ExportIn(BaseModel):
         description="Measurements: approximate exports are fitted to them, and the error "
         "is measured on their directions (default: on the fitted BRDF).",
     )
-
-
-class ConversionErrorOut(BaseModel):
-    """How far the exported material is from the data (or the fitted BRDF)."""
-
-    model_config = ConfigDict(extra="allow")
-
-    against: str = Field(description="'data', or the fitted BRDF on a gonio grid.")
-    n_directions: int = Field(description="Direction pairs the RMS is taken over.")
-    rms_log_target: float = Field(description="RMS of ln(1 + f cos theta_i), export vs reference.")
-    rms_log_fit: float = Field(description="The same for the fit itself.")
-    albedo_theta_i: list[float] = Field(description="Incidence angles of the albedos, degrees.")
-    albedo_target: list[list[float]] = Field(description="Directional albedo of the export.")
-    albedo_fit: list[list[float]] = Field(description="Directional albedo of the fit.")
-    exact: bool = Field(description="Whether the parameters were carried over exactly.")
-
-
-class ExportOut(BaseModel):
-    """``Export.to_dict()``."""
-
-    target: Target
-    document: dict[str, Any] | str = Field(description="What the renderer reads.")
-    parameters: dict[str, Any] = Field(description="The target's own parameters.")
-    conversion_error: ConversionErrorOut
-    notes: list[str] = Field(description="What could not be carried over; conventions.")
 
 
 @router.get("/export/targets", response_model=dict[str, str])

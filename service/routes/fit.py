@@ -47,7 +47,7 @@ def fit(body: FitIn, settings: SettingsDep, fits: FitsDep):
     (``fit_max_samples``) and seconds (``fit_timeout``, for the fit and for the
     posterior); longer work belongs to ``POST /jobs``."""
     data, notes = measurements(body.data, settings.fit_max_samples)
-    result = fits.run(data, body.model, fit_kwargs(body, settings.fit_timeout))
+    result = fits.run(data, body.model, fit_kwargs(body, settings.fit_timeout), body.export)
     return {**result, "data_notes": notes}
 
 
@@ -63,7 +63,8 @@ def fit_file(
     options: OptionsField = "{}",
 ):
     """``brdffit.fit(brdffit.read(file), model, **options)``, as ``POST /fit``."""
-    kwargs = fit_kwargs(form_options(options), settings.fit_timeout)
+    options_in = form_options(options)
+    kwargs = fit_kwargs(options_in, settings.fit_timeout)
     data, notes = read_upload(file.file.read(), file.filename, format, subsample, channels,
                               settings.fit_max_samples)  # fmt: skip
-    return {**fits.run(data, model, kwargs), "data_notes": notes}
+    return {**fits.run(data, model, kwargs, options_in.export), "data_notes": notes}

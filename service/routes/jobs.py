@@ -30,11 +30,14 @@ ACCEPTED = {**ERRORS, 202: {"description": "Accepted; stored before this answer.
 CONFLICT = {**NOT_FOUND, 409: {"model": ErrorOut, "description": "The job's status forbids it."}}
 
 
-def _submit(store, runner, response: Response, model: str, kwargs: dict, data, notes) -> dict:
+def _submit(store, runner, response: Response, model: str, kwargs: dict, data, notes,
+            export=()) -> dict:  # fmt: skip
     """Check the job as ``brdffit.fit`` would, without fitting (bad input is a 422 now,
-    not a failed job later), store it, then hand it to a worker."""
+    not a failed job later), store it (with its ``export`` targets, made by the
+    worker after the fit), then hand it to a worker."""
     brdffit.check_fit(data, model, **kwargs)
-    job = store.create(model, kwargs, data_to_bytes(data), notes)
+    stored = {**kwargs, "export": list(export)} if export else kwargs
+    job = store.create(model, stored, data_to_bytes(data), notes)
     runner.submit(job["id"], job["attempt"])
     response.headers["Location"] = f"/jobs/{job['id']}"
     return job
@@ -54,7 +57,7 @@ def create_job(body: FitIn, response: Response, settings: SettingsDep, store: St
     ``uncertainty`` is true); answers 202 once the job is stored."""
     data, notes = measurements(body.data, settings.max_samples)
     kwargs = fit_kwargs(body, settings.job_timeout)
-    return _submit(store, runner, response, body.model, kwargs, data, notes)
+    return _submit(store, runner, response, body.model, kwargs, data, notes, body.export)
 
 
 @router.post("/jobs/file", status_code=202, response_model=JobOut, responses=ACCEPTED)
@@ -75,7 +78,7 @@ def create_job_file(
     data, notes = read_upload(file.file.read(), file.filename, format, subsample, channels,
                               settings.max_samples)  # fmt: skip
     kwargs = fit_kwargs(options_in, settings.job_timeout)
-    return _submit(store, runner, response, model, kwargs, data, notes)
+    return _submit(store, runner, response, model, kwargs, data, notes, options_in.export)
 
 
 @router.get("/jobs", response_model=list[JobOut], responses=ERRORS)

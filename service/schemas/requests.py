@@ -12,7 +12,7 @@ from __future__ import annotations
 import inspect
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 import brdffit
 from brdffit.fitting.losses import LOSSES
@@ -21,6 +21,7 @@ __all__ = [
     "EXAMPLE_DATA",
     "DataIn",
     "EvaluateIn",
+    "ExportTarget",
     "FitIn",
     "FitOptions",
     "JobStatus",
@@ -32,6 +33,8 @@ Number = float
 PerChannel = float | list[float]
 #: Seeds go to numpy and nlopt, which take unsigned 32-bit integers.
 SEED_MAX = 2**32 - 1
+#: The renderers of :func:`brdffit.export_targets`.
+ExportTarget = Literal[tuple(brdffit.export_targets())]  # type: ignore[valid-type]
 JobStatus = Literal["queued", "running", "done", "failed", "interrupted", "cancelled"]
 
 
@@ -162,6 +165,18 @@ class FitOptions(BaseModel):
     posterior_options: PosteriorOptions | None = Field(
         None, description="Options of the posterior, when `uncertainty` is true."
     )
+    export: list[ExportTarget] = Field(
+        default_factory=list,
+        max_length=20,
+        description="Renderers to export the fitted material to after the fit (GET "
+        "/export/targets lists them), as POST /export with the data: the answer's "
+        "`exports`. They run within the fit's time limit.",
+    )
+
+    @field_validator("export")
+    @classmethod
+    def _once_each(cls, targets: list) -> list:
+        return list(dict.fromkeys(targets))
 
 
 class FitIn(FitOptions):

@@ -8,9 +8,15 @@ that is not finite is ``null`` (JSON has no NaN: :mod:`brdffit.jsonable`).
 
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import BaseModel, ConfigDict, Field
 
+from .requests import ExportTarget
+
 __all__ = [
+    "ConversionErrorOut",
+    "ExportOut",
     "FitResultOut",
     "MisfitOut",
     "NoiseOut",
@@ -148,6 +154,31 @@ class MisfitOut(BaseModel):
     message: str = Field(description="The verdict, in words.")
 
 
+class ConversionErrorOut(BaseModel):
+    """How far the exported material is from the data (or the fitted BRDF)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    against: str = Field(description="'data', or the fitted BRDF on a gonio grid.")
+    n_directions: int = Field(description="Direction pairs the RMS is taken over.")
+    rms_log_target: float = Field(description="RMS of ln(1 + f cos theta_i), export vs reference.")
+    rms_log_fit: float = Field(description="The same for the fit itself.")
+    albedo_theta_i: list[float] = Field(description="Incidence angles of the albedos, degrees.")
+    albedo_target: list[list[float]] = Field(description="Directional albedo of the export.")
+    albedo_fit: list[list[float]] = Field(description="Directional albedo of the fit.")
+    exact: bool = Field(description="Whether the parameters were carried over exactly.")
+
+
+class ExportOut(BaseModel):
+    """``Export.to_dict()``: :func:`brdffit.export`."""
+
+    target: ExportTarget = Field(description="The renderer (GET /export/targets lists them).")
+    document: dict[str, Any] | str = Field(description="What the renderer reads.")
+    parameters: dict[str, Any] = Field(description="The target's own parameters.")
+    conversion_error: ConversionErrorOut = Field(description="The export's error.")
+    notes: list[str] = Field(description="What could not be carried over; conventions.")
+
+
 class FitResultOut(BaseModel):
     """``FitResult.to_dict()``, and in answers to ``POST /fit`` the data's notes."""
 
@@ -195,6 +226,16 @@ class FitResultOut(BaseModel):
     )
     posterior: PosteriorOut | None = Field(
         None, description="The posterior, when `uncertainty` was asked for."
+    )
+    exports: list[ExportOut] | None = Field(
+        None,
+        description="With the option `export`: the fitted material as each renderer's "
+        "material (as POST /export answers, with the data), made after the fit.",
+    )
+    export_errors: dict[str, str] | None = Field(
+        None,
+        description="With the option `export`: target -> why its export was not made "
+        "(the fit's time limit ran out first, or the library's error); null: none.",
     )
     data_notes: list[str] | None = Field(
         None,

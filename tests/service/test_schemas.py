@@ -35,7 +35,7 @@ from brdffit_service.schemas import (
 from brdffit_service.store import JobStore, data_to_bytes
 
 #: Fields the service adds to a library answer (not in any to_dict()).
-SERVICE_ONLY = {FitResultOut: {"data_notes"}, ModelOut: {"properties"}}
+SERVICE_ONLY = {FitResultOut: {"data_notes", "exports", "export_errors"}, ModelOut: {"properties"}}
 POSTERIOR = {"steps": 60, "walkers": 16, "noise": "relative", "seed": 1}
 
 
