@@ -7,7 +7,10 @@ const DEFAULT_MODELS = ["ward", "ggx", "blinn"];
 const TERMINAL = new Set(["done", "failed", "interrupted", "cancelled", "deleted"]);
 const TOKEN_KEY = "brdffit-token";
 const POLL_MS = 700;
-const state = { models: [], file: null, jobs: {}, comparison: null, timer: null };
+const state = { models: [], targets: {}, file: null, jobs: {}, comparison: null, timer: null };
+// The file name ending of each renderer export (GET /export/targets).
+const EXPORT_ENDINGS = { mitsuba: "mitsuba.json", "mitsuba-xml": "mitsuba.xml", gltf: "gltf",
+                         openpbr: "mtlx", pbrt: "pbrt", blender: "blender.json" };
 
 function el(tag, attrs = {}, ...children) {
   const node = document.createElement(tag);
@@ -158,6 +161,10 @@ async function loadLosses() {
   const select = $("#loss");
   select.append(el("option", { value: "", text: "default (chi2 with sigma, else l2)" }));
   for (const name of names) select.append(el("option", { value: name, text: name }));
+}
+
+async function loadTargets() {
+  state.targets = await getJSON("/export/targets");
 }
 
 async function loadExamples() {
@@ -401,7 +408,59 @@ function renderModel(job) {
     el("a", { href: `/jobs/${job.id}/plot.png`, download: `${job.model}-fit.png`, text: "fit plot (PNG)" })];
   if (post) downloads.push(" · ", el("a", { href: `/jobs/${job.id}/corner.png`, download: `${job.model}-corner.png`, text: "corner plot (PNG)" }));
   article.append(el("p", {}, "Download: ", ...downloads));
+  article.append(exportButtons(job));
   return article;
+}
+
+// ----------------------------------------------------------------- exports
+// One button per renderer: the job's own export when it made one (option
+// `export`), else POST /export with its result; the document is saved as a file
+// and its conversion error said beside the buttons.
+function exportButtons(job) {
+  const status = el("p", { class: "export-status", role: "status", "aria-live": "polite" });
+  const buttons = Object.entries(state.targets).map(([target, about]) => {
+    const button = el("button", { type: "button", "data-target": target, title: about, text: target,
+                                  "aria-label": `Download ${job.model} as a ${target} material (${about})` });
+    button.addEventListener("click", () => downloadExport(job, target, button, status));
+    return button;
+  });
+  const label = el("span", { id: `x-${job.id}`, text: "Download the material for a renderer:" });
+  const group = el("div", { class: "buttons exports", role: "group", "aria-labelledby": `x-${job.id}` }, label, ...buttons);
+  return el("div", {}, group, status);
+}
+
+async function exportOf(job, target) {
+  const r = job.result;
+  const made = (r.exports || []).find((e) => e.target === target);
+  if (made) return made;
+  const body = { result: { model: r.model, params: r.params, channels: r.channels }, target };
+  return getJSON("/export", { method: "POST", headers: { "Content-Type": "application/json" },
+                              body: JSON.stringify(body) });
+}
+
+async function downloadExport(job, target, button, status) {
+  button.disabled = true;
+  status.classList.remove("error");
+  status.textContent = `Exporting ${job.model} to ${target}…`;
+  try {
+    const made = await exportOf(job, target);
+    const text = typeof made.document === "string" ? made.document : JSON.stringify(made.document, null, 2);
+    const name = `${job.model}.${EXPORT_ENDINGS[target] || "txt"}`;
+    const url = URL.createObjectURL(new Blob([text], { type: "application/octet-stream" }));
+    const link = el("a", { href: url, download: name, hidden: true });
+    document.body.append(link);
+    link.click();
+    link.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 60000);
+    const e = made.conversion_error;
+    status.textContent = `Saved ${name}: ${e.exact ? "an exact" : "an approximate"} ${target} material; `
+      + `RMS of ln(1 + f cos) ${fmt(e.rms_log_target)} (the fit's own ${fmt(e.rms_log_fit)}) against the ${e.against}.`;
+  } catch (error) {
+    status.classList.add("error");
+    status.textContent = `${target}: ${(error.body && error.body.message) || error.message}`;
+  } finally {
+    button.disabled = false;
+  }
 }
 
 // ------------------------------------------------------------------ recent
@@ -428,7 +487,7 @@ async function start() {
   $("#refresh-recent").addEventListener("click", refreshRecent);
   window.addEventListener("hashchange", follow);
   try {
-    await Promise.all([loadModels(), loadLosses(), loadExamples()]);
+    await Promise.all([loadModels(), loadLosses(), loadExamples(), loadTargets()]);
     const health = await getJSON("/health");
     $("#version").textContent = health.version;
   } catch (error) {

@@ -200,6 +200,7 @@ def test_compare_three_models_with_uncertainty(server, browser):
     assert len(widths) == 6 and all(w > 0 for w in widths), widths
     notes = browser.find_element(By.ID, "notes").text
     assert notes.startswith("Notes about the data"), notes
+    check_export_download(browser, article, server)
 
     browser.execute_script("document.getElementById('results').scrollIntoView()")
     shot(browser, "3_results")
@@ -232,6 +233,33 @@ def test_compare_three_models_with_uncertainty(server, browser):
         shot(browser, "4_phone")
     finally:
         browser.set_window_size(1280, 800)
+
+
+def check_export_download(browser, article, server: str) -> None:
+    """Ward's renderer exports: a labelled button per target; the glTF one, pressed
+    from the keyboard, saves a glTF asset whose material is the export's."""
+    targets = httpx.get(server + "/export/targets").json()
+    buttons = article.find_elements(By.CSS_SELECTOR, ".exports button")
+    assert [b.get_attribute("data-target") for b in buttons] == list(targets)
+    assert all("ward" in b.get_attribute("aria-label") for b in buttons)
+    folder = Path(tempfile.mkdtemp(prefix="brdffit-downloads-"))
+    browser.execute_cdp_cmd("Browser.setDownloadBehavior",
+                            {"behavior": "allow", "downloadPath": str(folder)})  # fmt: skip
+    try:
+        gltf = article.find_element(By.CSS_SELECTOR, '.exports button[data-target="gltf"]')
+        browser.execute_script("arguments[0].focus()", gltf)
+        gltf.send_keys(Keys.ENTER)
+        saved = folder / "ward.gltf"
+        WebDriverWait(browser, 20).until(lambda d: saved.exists() and saved.stat().st_size > 0)
+        asset = json.loads(saved.read_text())
+        assert asset["asset"]["version"] == "2.0"
+        (material,) = asset["materials"]
+        pbr = material["pbrMetallicRoughness"]
+        assert 0 < pbr["roughnessFactor"] <= 1 and len(pbr["baseColorFactor"]) == 4
+        status = article.find_element(By.CSS_SELECTOR, ".export-status").text
+        assert status.startswith("Saved ward.gltf") and "RMS" in status, status
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def test_bad_file_shows_the_error_next_to_the_file(server, browser, tmp_path):
