@@ -214,7 +214,10 @@ class JobRunner:
         ``interrupted`` at the next start, where they can be resubmitted."""
         with self._lock:
             self._closing = True
-            _stop(self._executor)
+            executor = self._executor
+        # Outside the lock: cancelling a queued future runs its callback, _done, which
+        # takes the lock (a server stopped with a job queued hung here).
+        _stop(executor)
 
 
 def fit_to_dict(data, model: str, kwargs: dict, export=()) -> dict:
