@@ -95,11 +95,7 @@ class ComparisonStore:
             row = db.execute("SELECT * FROM comparisons WHERE id = ?", (comparison_id,)).fetchone()
         if row is None:
             return None
-        out = dict(row)
-        out["models"], out["jobs"] = json.loads(out["models"]), json.loads(out["jobs"])
-        out["test"] = data_from_bytes(out["test"])
-        out["created"] = iso(out["created"])
-        return out
+        return {**_decoded(row), "test": data_from_bytes(row["test"])}
 
     def list(self, limit: int = 20) -> list[dict]:
         with self._connect() as db:
@@ -108,8 +104,10 @@ class ComparisonStore:
                 "ORDER BY created DESC LIMIT ?",
                 (limit,),
             ).fetchall()
-        return [
-            {**dict(r), "created": iso(r["created"]), "models": json.loads(r["models"]),
-             "jobs": json.loads(r["jobs"])}
-            for r in rows
-        ]  # fmt: skip
+        return [_decoded(row) for row in rows]
+
+
+def _decoded(row: sqlite3.Row) -> dict:
+    """A row as a dict: its JSON lists decoded, its time in ISO 8601."""
+    return {**dict(row), "created": iso(row["created"]), "models": json.loads(row["models"]),
+            "jobs": json.loads(row["jobs"])}  # fmt: skip

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, File, Form, Query, Response, UploadFile
+from fastapi import APIRouter, Form, Query, Response, UploadFile
 from pydantic import BaseModel, Field
 
 import brdffit
@@ -24,17 +24,14 @@ from ..deps import RunnerDep, SettingsDep, StoreDep
 from ..errors import ApiError
 from ..schemas import ErrorOut
 from ..store import data_to_bytes
-from .common import form_options
+from .common import ERRORS as FORM_ERRORS
+from .common import FileField, FormatField, OptionsField, form_options
 
 __all__ = ["router"]
 
 router = APIRouter(tags=["comparisons"])
 MAX_MODELS = 12
-ERRORS = {
-    404: {"model": ErrorOut, "description": "No such comparison."},
-    413: {"model": ErrorOut, "description": "The body is larger than the server takes."},
-    422: {"model": ErrorOut, "description": "Input that cannot be used; `field` says which."},
-}
+ERRORS = {404: {"model": ErrorOut, "description": "No such comparison."}, **FORM_ERRORS}
 
 
 class EntryOut(BaseModel):
@@ -92,7 +89,6 @@ def _read(file: UploadFile, format: str | None, limit: int):
 
 ModelsField = Annotated[str, Form(max_length=2000, description="Model names: ward,ggx,blinn")]
 FractionField = Annotated[float, Form(gt=0, le=0.9, description="Share of samples held out.")]
-OptionsField = Annotated[str, Form(max_length=100_000, description="FitOptions as JSON.")]
 
 
 @router.post("/comparisons/file", status_code=202, response_model=ComparisonOut,
@@ -102,9 +98,9 @@ def create_comparison(
     settings: SettingsDep,
     store: StoreDep,
     runner: RunnerDep,
-    file: Annotated[UploadFile, File(description="The data file, as for POST /jobs/file.")],
+    file: FileField,
     models: ModelsField,
-    format: Annotated[str | None, Form(max_length=20)] = None,
+    format: FormatField = None,
     options: OptionsField = "{}",
     test_fraction: FractionField = 0.2,
 ):
