@@ -8,11 +8,12 @@ JSON (no NaN or infinity), the form ``brdffit batch`` writes one line of.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from ..jsonable import jsonable
 
 __all__ = ["BatchRow", "RowError", "pair_key"]
 
@@ -88,15 +89,15 @@ class BatchRow:
 
     def to_dict(self) -> dict:
         """Strict-JSON form: non-finite numbers become ``null``."""
-        return _strict(
+        return jsonable(
             {
                 "source": self.source,
                 "model": self.model,
                 "ok": self.ok,
                 "seconds": self.seconds,
                 "worker": self.worker,
-                "heldout_rmse": _finite(self.heldout_rmse),
-                "heldout_loss": _finite(self.heldout_loss),
+                "heldout_rmse": self.heldout_rmse,
+                "heldout_loss": self.heldout_loss,
                 "error": None if self.error is None else self.error.to_dict(),
                 "result": None if self.result is None else self.result.to_dict(),
             }
@@ -118,26 +119,10 @@ def _result_from_dict(d: dict):
         n_params=d["n_params"], n_evals=d["n_evals"], seconds=d["seconds"],
         converged=d["converged"], message=d["message"], channels=tuple(d["channels"]),
         fixed=d["fixed"], options=d["options"], at_bounds=tuple(d["at_bounds"]),
-        posterior=d.get("posterior"),
+        posterior=d.get("posterior"), unidentified=d.get("unidentified") or {},
+        noise=d.get("noise"), misfit=d.get("misfit"),
     )  # fmt: skip
 
 
 def pair_key(source: str, model: str) -> tuple:
     return (str(source), str(model))
-
-
-def _strict(value):
-    # FitResult.to_dict() keeps a NaN inside arrays and numpy scalars; JSON has none.
-    if isinstance(value, dict):
-        return {k: _strict(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_strict(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def _finite(value):
-    if value is None or not math.isfinite(value):
-        return None
-    return float(value)

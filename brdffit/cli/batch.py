@@ -21,6 +21,7 @@ import time
 from ..batch import BatchRow, connect, fit_many
 from ..batch.summary import best_per_source, best_table, write_report
 from ..errors import BrdfFitError
+from ..jsonable import dumps
 from ..models import get_model
 from .text import table
 
@@ -187,7 +188,7 @@ def run(args) -> int:
                 files, models, client=client, uncertainty=args.uncertainty,
                 test_fraction=args.test_fraction or None, skip=done, **_options(args),
             ):  # fmt: skip
-                out.write(json.dumps(row.to_dict(), allow_nan=False) + "\n")
+                out.write(dumps(row.to_dict()) + "\n")
                 out.flush()
                 rows.append(row)
                 progress.add(row)

@@ -269,3 +269,17 @@ def test_cli_bad_arguments_are_one_line_and_exit_2(argv, says, tmp_path, capsys)
     assert main(["batch", *argv, "--out", str(tmp_path / "r.jsonl")]) == 2
     err = capsys.readouterr().err
     assert says in err and "Traceback" not in err
+
+
+def test_a_row_read_back_keeps_the_whole_result(tmp_path):
+    # A resumed batch rebuilds its rows from the file: every field of the fit must survive.
+    from brdffit.batch import BatchRow
+
+    data = brdffit.read(FILES[1])
+    result = brdffit.fit(data, "ward", seed=1)
+    assert result.noise is not None and result.misfit is not None
+    row = BatchRow(FILES[1], "ward", result, seconds=1.5, heldout_rmse=float("nan"))
+    line = json.dumps(row.to_dict(), allow_nan=False)
+    back = BatchRow.from_dict(json.loads(line))
+    assert back.heldout_rmse is None and back.key == row.key
+    assert back.result.to_dict() == json.loads(json.dumps(result.to_dict()))
