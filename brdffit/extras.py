@@ -1,8 +1,9 @@
 """The optional parts of brdffit and the extras that install them.
 
 The core (reading, models, fitting, the posterior, the command line) needs
-numpy, scipy, nlopt and emcee. Plots, the web service and the conversion of
-spectra to colour import their packages only when used, through
+numpy, scipy, nlopt and emcee. Plots, the web service, the conversion of
+spectra to colour, batch fits (Dask) and export previews (Mitsuba) import
+their packages only when used, through
 :func:`require`, which turns a missing package into a one-line
 :class:`~brdffit.errors.MissingExtraError` naming the extra to install.
 """
