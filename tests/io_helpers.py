@@ -9,11 +9,25 @@ from __future__ import annotations
 
 import math
 import struct
+import tracemalloc
 import warnings
 
 import numpy as np
 
 from brdffit.data.measurements import Measurements
+
+
+def peak_of(function) -> tuple:
+    """What ``function()`` returned or raised, and the peak of traced memory (bytes) meanwhile."""
+    tracemalloc.start()
+    try:
+        outcome = function()
+    except Exception as exc:
+        outcome = exc
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    return outcome, peak
 
 
 def rgb_data(n=60, seed=0, from_angles=True, sigma=True):

@@ -15,14 +15,13 @@ from __future__ import annotations
 import io
 import re
 import struct
-import tracemalloc
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 from helpers import SHARED_DATA
-from io_helpers import small_files
+from io_helpers import peak_of, small_files
 
 import brdffit
 from brdffit.errors import BrdfFitError
@@ -68,17 +67,13 @@ def read_traced(name: str, raw: bytes):
     """What reading gives (Measurements or the exception) and the traced peak in bytes."""
     source = io.BytesIO(raw)
     source.name = name
-    tracemalloc.start()
-    try:
+
+    def read():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            outcome = brdffit.read(source, max_samples=LIMIT)
-    except Exception as exc:
-        outcome = exc
-    finally:
-        peak = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
-    return outcome, peak
+            return brdffit.read(source, max_samples=LIMIT)
+
+    return peak_of(read)
 
 
 def cases():

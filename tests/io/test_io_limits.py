@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import io
 import struct
-import tracemalloc
 import warnings
 import zlib
 
 import numpy as np
 import pytest
-from io_helpers import small_files
+from io_helpers import peak_of, small_files
 
 import brdffit
 from brdffit.errors import FormatError
@@ -83,21 +82,6 @@ def npz_claiming(n: int, data_bytes: int | None = None) -> bytes:
         c = zlib.compressobj(9, zlib.DEFLATED, -15)
         members.append((key + ".npy", c.compress(raw) + c.flush(), zlib.crc32(raw), len(raw)))
     return zip_of(members)
-
-
-def peak_of(function) -> tuple:
-    """What ``function()`` raised and the peak of traced memory (bytes) meanwhile."""
-    tracemalloc.start()
-    try:
-        function()
-    except Exception as exc:
-        raised = exc
-    else:
-        raised = None
-    finally:
-        peak = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
-    return raised, peak
 
 
 def test_the_helper_archive_is_a_valid_npz():
