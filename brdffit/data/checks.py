@@ -72,6 +72,11 @@ def _check_channels(channels, c: int) -> tuple:
     return names
 
 
+def _entries_are(n: int) -> str:
+    """``"1 entry is"`` or ``"2 entries are"``."""
+    return f"{plural(n, 'entry', 'entries')} {'is' if n == 1 else 'are'}"
+
+
 def _check_sigma(sigma, shape: tuple) -> np.ndarray | None:
     if sigma is None:
         return None
@@ -85,7 +90,7 @@ def _check_sigma(sigma, shape: tuple) -> np.ndarray | None:
     if bad.any():
         i, c = _first_bad(bad)
         raise DataError(
-            f"sigma must be positive and finite; {int(bad.sum())} entries are not, "
+            f"sigma must be positive and finite; {_entries_are(int(bad.sum()))} not, "
             f"the first sigma[{i}, {c}] = {float(s[i, c])!r}",
             "sigma",
         )
@@ -103,7 +108,8 @@ def _check_angles(name: str, a, n: int | None, degrees: bool, polar: bool) -> np
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise DataError(
-            f"{name}[{i}] = {float(a[i])!r} is not finite; {int(bad.sum())} are NaN or inf",
+            f"{name}[{i}] = {float(a[i])!r} is not finite; "
+            f"{_entries_are(int(bad.sum()))} NaN or inf",
             name,
         )
     if polar:
@@ -131,7 +137,7 @@ def _validated(n: int, values, channels, sigma) -> tuple:
     if bad.any():
         i, c = _first_bad(bad)
         raise DataError(
-            f"values contain {int(bad.sum())} non-finite number(s) (NaN or inf); "
+            f"values contain {plural(int(bad.sum()), 'non-finite number')} (NaN or inf); "
             f"the first is values[{i}, {c}] = {float(values[i, c])!r}",
             "values",
         )

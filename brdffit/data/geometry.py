@@ -20,6 +20,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import DataError
+from ..words import plural
 
 __all__ = ["Geometry", "check_directions", "directions_from_angles", "angles_from_directions"]
 
@@ -52,7 +53,7 @@ def check_directions(wi, wo) -> tuple[np.ndarray, np.ndarray]:
             i = int(np.flatnonzero(bad)[0])
             raise DataError(
                 f"{name}[{i}] = {a[i].tolist()} is not finite; "
-                f"{int(bad.sum())} direction(s) contain NaN or inf",
+                f"{plural(int(bad.sum()), 'direction')} with NaN or inf",
                 name,
             )
         norm = np.linalg.norm(a, axis=1)

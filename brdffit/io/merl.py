@@ -54,6 +54,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import DataError, FormatError
+from ..words import plural
 from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source, put_bytes
 
@@ -354,7 +355,7 @@ def write_merl(target, data) -> None:
     if values.ndim != 2 or values.shape[1] != 3:
         names = ", ".join(getattr(data, "channels", ()) or ())
         raise DataError(
-            f"data has {values.shape[1] if values.ndim == 2 else 1} channel(s) ({names}); "
+            f"data has {plural(values.shape[1] if values.ndim == 2 else 1, 'channel')} ({names}); "
             "the MERL format stores exactly 3 (r, g, b)",
             "channels",
         )

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..data.measurements import Measurements
 from ..errors import FormatError
+from ..words import plural
 from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source
 from .table import build
@@ -49,7 +50,7 @@ def _numbers(tokens: list, lines: np.ndarray, where: str) -> np.ndarray:
         k = int(np.flatnonzero(bad)[0])
         raise FormatError(
             f"{where}, line {lines[k]}: {tokens[k]!r} is not a finite number; "
-            f"{int(bad.sum())} numbers are NaN or inf",
+            f"NaN or inf in {plural(int(bad.sum()), 'number')} in all",
             "data",
         )
     return numbers

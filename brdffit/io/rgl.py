@@ -61,6 +61,7 @@ import numpy as np
 
 from ..errors import FormatError
 from ..notes import note
+from ..words import plural
 from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source
 from .tensor_file import DTYPES, MAGIC, TensorField, read_tensor_file
@@ -195,7 +196,7 @@ def _field(fields: dict, name: str, ndim: int, path, dtype: str = "<f4") -> Tens
     if f.dtype != np.dtype(dtype) or len(f.shape) != ndim:
         raise FormatError(
             f"{path}: field {name!r} (header data at byte {f.offset}) is {f.dtype} with shape "
-            f"{list(f.shape)}; it must be {np.dtype(dtype)} with {ndim} dimension(s)",
+            f"{list(f.shape)}; it must be {np.dtype(dtype)} with {plural(ndim, 'dimension')}",
             "source",
         )
     return f

@@ -18,6 +18,7 @@ from ..data.angle_units import radians_note, radians_suspected
 from ..data.measurements import ANGLE_COLUMNS, Measurements
 from ..errors import DataError, FormatError
 from ..notes import note
+from ..words import plural
 
 __all__ = ["SEPARATORS", "build", "from_table", "number_table", "require_finite"]
 
@@ -91,7 +92,7 @@ def require_finite(table: np.ndarray, names: list, lines: list, where: str) -> N
         k, j = divmod(int(np.flatnonzero(bad)[0]), table.shape[1])
         raise FormatError(
             f"{where}, line {lines[k]}, column {names[j]}: {float(table[k, j])!r} is not a finite "
-            f"number; {int(bad.sum())} entries are NaN or inf",
+            f"number; NaN or inf in {plural(int(bad.sum()), 'entry', 'entries')} in all",
             names[j],
         )
 
