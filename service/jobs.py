@@ -63,22 +63,25 @@ class _Reporter:
         self.last = 0.0
 
     def __call__(self, progress) -> None:
-        if _orphan(self.parent_pid):
-            raise Cancelled("the server process that started this job is gone")
+        self._check_server()
         now = time.monotonic()
         if now - self.last < PROGRESS_EVERY:
             return
         self.last = now
         report = dataclasses.asdict(progress)
         report.setdefault("stage", "posterior")
-        if not self.store.progress(self.job_id, self.attempt, jsonable(report)):
-            raise Cancelled("the job was cancelled, deleted or resubmitted")
+        self._write(jsonable(report))
 
     def exporting(self, target: str) -> None:
         """The progress of an export (``export`` option), made after the fit."""
+        self._check_server()
+        self._write({"stage": f"export {target}", "seconds": 0.0})
+
+    def _check_server(self) -> None:
         if _orphan(self.parent_pid):
             raise Cancelled("the server process that started this job is gone")
-        report = {"stage": f"export {target}", "seconds": 0.0}
+
+    def _write(self, report: dict) -> None:
         if not self.store.progress(self.job_id, self.attempt, report):
             raise Cancelled("the job was cancelled, deleted or resubmitted")
 
