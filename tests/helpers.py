@@ -16,6 +16,7 @@ from brdffit import Measurements, get_model, kernels
 from brdffit.data.geometry import directions_from_angles
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # the first 8 bytes of every PNG file
 
 
 def shared_file(*parts: str) -> Path:
@@ -131,3 +132,12 @@ def compiled_for_every_size():
     """By default the kernels run from kernels.MIN_PAIRS pairs; these tests use fewer."""
     with kernels.use(True):
         yield
+
+
+def run_cli(capsys, *argv):
+    """``brdffit *argv`` in-process: the exit code, stdout and stderr."""
+    from brdffit.cli.main import main
+
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import PNG_SIGNATURE, run_cli
 
 import brdffit
 from brdffit.cli.main import main
@@ -27,13 +28,6 @@ from brdffit.cli.text import _pm
 ROOT = Path(__file__).resolve().parents[2]
 WARD = ROOT / "data_synthetic" / "ward.csv"
 BLINN = ROOT / "data_synthetic" / "blinn.csv"
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def without_seconds(value):
@@ -56,7 +50,7 @@ def direction(theta_deg, phi_deg):
 
 # ---------------------------------------------------------------------- fit
 def test_fit_json_matches_the_library(capsys):
-    code, out, err = run(capsys, "fit", WARD, "--model", "ward", "--seed", 4, "--json")
+    code, out, err = run_cli(capsys, "fit", WARD, "--model", "ward", "--seed", 4, "--json")
     assert code == 0, err
     expected = brdffit.fit(brdffit.read(WARD), "ward", seed=4).to_dict()
     assert without_seconds(json.loads(out)) == without_seconds(plain_json(expected))
@@ -77,7 +71,7 @@ def test_fit_json_with_fixed_and_channels_and_loss(capsys):
         "log",
         "--json",
     ]
-    code, out, err = run(capsys, *argv)
+    code, out, err = run_cli(capsys, *argv)
     assert code == 0, err
     data = brdffit.read(BLINN).select_channels(["g", "b"])
     expected = brdffit.fit(data, "blinn", fixed={"n": 80.0}, loss="log").to_dict()
@@ -87,7 +81,7 @@ def test_fit_json_with_fixed_and_channels_and_loss(capsys):
 
 
 def test_fit_uncertainty_json_matches_the_library(capsys):
-    code, out, err = run(capsys, "fit", WARD, "--model", "ward", "--uncertainty", "--json")
+    code, out, err = run_cli(capsys, "fit", WARD, "--model", "ward", "--uncertainty", "--json")
     assert code == 0, err
     got = json.loads(out)
     expected = brdffit.fit(brdffit.read(WARD), "ward", uncertainty=True).to_dict()
@@ -102,7 +96,7 @@ def parse_pm(cell: str):
 
 
 def test_fit_uncertainty_text_shows_median_and_percentiles(capsys):
-    code, out, err = run(capsys, "fit", WARD, "--model", "ward", "--uncertainty")
+    code, out, err = run_cli(capsys, "fit", WARD, "--model", "ward", "--uncertainty")
     assert code == 0, err
     post = brdffit.fit(brdffit.read(WARD), "ward", uncertainty=True).posterior
     rows = {line.split()[0]: line for line in out.splitlines() if line.strip()}
@@ -119,7 +113,7 @@ def test_fit_uncertainty_text_shows_median_and_percentiles(capsys):
 
 
 def test_an_unconverged_posterior_says_so_loudly(capsys):
-    code, out, err = run(
+    code, out, err = run_cli(
         capsys, "fit", WARD, "--model", "ward", "--uncertainty", "--max-seconds", "0.01"
     )
     assert code == 0
@@ -144,7 +138,9 @@ def test_plot_writes_pngs_matplotlib_reads_back(capsys, tmp_path):
     from matplotlib.image import imread
 
     path = tmp_path / "fit.png"
-    code, _out, err = run(capsys, "fit", WARD, "--model", "ward", "--uncertainty", "--plot", path)
+    code, _out, err = run_cli(
+        capsys, "fit", WARD, "--model", "ward", "--uncertainty", "--plot", path
+    )
     assert code == 0, err
     assert path.read_bytes()[:8] == PNG_SIGNATURE
     image = imread(path)
@@ -169,7 +165,9 @@ def test_fit_energy_conserving_matches_the_library(capsys, tmp_path):
     values = brdffit.get_model("phong").evaluate(wi, wo, {"kd": 0.8, "ks": 3.0, "n": 5.0})
     path = tmp_path / "bright.npz"
     brdffit.write(path, brdffit.Measurements(wi, wo, values[:, None], channels=["v"]))
-    code, out, err = run(capsys, "fit", path, "--model", "phong", "--energy-conserving", "--json")
+    code, out, err = run_cli(
+        capsys, "fit", path, "--model", "phong", "--energy-conserving", "--json"
+    )
     assert code == 0, err
     got = json.loads(out)
     expected = brdffit.fit(brdffit.read(path), "phong", energy_conserving=True).to_dict()
@@ -207,7 +205,7 @@ def test_fit_energy_conserving_matches_the_library(capsys, tmp_path):
     ],
 )
 def test_bad_input_is_one_line_on_stderr_and_exit_2(capsys, argv, words):
-    code, out, err = run(capsys, *argv)
+    code, out, err = run_cli(capsys, *argv)
     assert code == 2
     assert len(err.strip().splitlines()) == 1, err
     assert err.startswith("brdffit") and "error:" in err
@@ -217,7 +215,7 @@ def test_bad_input_is_one_line_on_stderr_and_exit_2(capsys, argv, words):
 
 def test_bad_service_settings_from_the_environment_exit_2(capsys, monkeypatch):
     monkeypatch.setenv("BRDFFIT_FIT_TIMEOUT", "soon")
-    code, _out, err = run(capsys, "serve")
+    code, _out, err = run_cli(capsys, "serve")
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert "fit_timeout='soon' is not a valid setting" in err and "BRDFFIT_FIT_TIMEOUT" in err
 
@@ -270,7 +268,7 @@ def test_progress_shows_on_a_terminal_and_never_under_json(capsys, monkeypatch):
 
 # ------------------------------------------------------------------ models
 def test_models_lists_every_model_with_its_axes(capsys):
-    code, out, _err = run(capsys, "models")
+    code, out, _err = run_cli(capsys, "models")
     assert code == 0
     lines = out.splitlines()
     for model in brdffit.list_models():
@@ -280,7 +278,7 @@ def test_models_lists_every_model_with_its_axes(capsys):
 
 
 def test_models_filters_and_json_match_the_library(capsys):
-    _code, out, _err = run(
+    _code, out, _err = run_cli(
         capsys, "models", "--symmetry", "anisotropic", "--highlight", "material", "--json"
     )
     expected = brdffit.list_models(symmetry="anisotropic", highlight="material")
@@ -290,7 +288,7 @@ def test_models_filters_and_json_match_the_library(capsys):
 def test_models_properties_match_model_properties(capsys):
     from brdffit.models.properties import model_properties
 
-    _code, out, _err = run(
+    _code, out, _err = run_cli(
         capsys,
         "models",
         "--origin",
@@ -310,7 +308,7 @@ def test_models_properties_match_model_properties(capsys):
 # ------------------------------------------------------- synth, evaluate...
 def test_synth_writes_what_synthesize_makes(capsys, tmp_path):
     out_path = tmp_path / "blinn.csv"
-    code, _out, err = run(
+    code, _out, err = run_cli(
         capsys,
         "synth",
         "--model",
@@ -349,7 +347,7 @@ def test_evaluate_angles_match_the_model(capsys):
     argv = ["evaluate", "--model", "ward", "--params", "kd=0.4", "alpha=0.2", "--json"]
     for p in pairs:
         argv += ["--angles", ",".join(str(a) for a in p)]
-    code, out, err = run(capsys, *argv)
+    code, out, err = run_cli(capsys, *argv)
     assert code == 0, err
     model = brdffit.get_model("ward")
     wi = np.array([direction(p[0], p[1]) for p in pairs])
@@ -361,7 +359,7 @@ def test_evaluate_angles_match_the_model(capsys):
 
 
 def test_evaluate_on_the_pairs_of_a_file_prints_csv(capsys):
-    code, out, err = run(capsys, "evaluate", "--model", "ward", "--file", WARD)
+    code, out, err = run_cli(capsys, "evaluate", "--model", "ward", "--file", WARD)
     assert code == 0, err
     lines = out.strip().splitlines()
     assert lines[0] == "theta_i,phi_i,theta_o,phi_o,value"
@@ -374,13 +372,13 @@ def test_evaluate_on_the_pairs_of_a_file_prints_csv(capsys):
 
 
 def test_compare_json_matches_the_library(capsys):
-    code, out, err = run(capsys, "compare", WARD, "--models", "ward,blinn", "--json")
+    code, out, err = run_cli(capsys, "compare", WARD, "--models", "ward,blinn", "--json")
     assert code == 0, err
     expected = brdffit.fitting.compare(brdffit.read(WARD), ["ward", "blinn"]).to_dict()
     assert without_seconds(json.loads(out)) == without_seconds(plain_json(expected))
 
 
 def test_compare_text_names_the_winners(capsys):
-    code, out, err = run(capsys, "compare", WARD, "--models", "ward,lambert")
+    code, out, err = run_cli(capsys, "compare", WARD, "--models", "ward,lambert")
     assert code == 0, err
     assert "best by BIC: ward; best on the held-out samples: ward" in out

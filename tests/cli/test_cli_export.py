@@ -8,32 +8,25 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import PNG_SIGNATURE, run_cli
 
 import brdffit
-from brdffit.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
 GLTF = ROOT / "data_synthetic" / "gltf_pbr.csv"
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
 def result_json(tmp_path_factory):
     path = tmp_path_factory.mktemp("fit") / "result.json"
     result = brdffit.fit(brdffit.read(GLTF), "gltf_pbr")
-    path.write_text(json.dumps(json.loads(json.dumps(result.to_dict(), default=float))))
+    path.write_text(json.dumps(result.to_dict(), allow_nan=False))
     return path
 
 
 def test_export_writes_what_the_library_exports(capsys, tmp_path, result_json):
     out = tmp_path / "m.gltf"
-    code, stdout, err = run(capsys, "export", result_json, "--to", "gltf", "--out", out)
+    code, stdout, err = run_cli(capsys, "export", result_json, "--to", "gltf", "--out", out)
     assert code == 0, err
     expected = brdffit.export(json.loads(result_json.read_text()), "gltf")
     assert json.loads(out.read_text()) == expected.document
@@ -42,7 +35,7 @@ def test_export_writes_what_the_library_exports(capsys, tmp_path, result_json):
 
 def test_export_json_and_data(capsys, tmp_path, result_json):
     out = tmp_path / "m.mtlx"
-    code, stdout, err = run(
+    code, stdout, err = run_cli(
         capsys, "export", result_json, "--to", "openpbr", "--out", out, "--data", GLTF, "--json"
     )
     assert code == 0, err
@@ -56,7 +49,7 @@ def test_fit_with_export_keeps_stdout_json(capsys, tmp_path):
     gltf, pbrt = tmp_path / "a.gltf", tmp_path / "a.pbrt"
     argv = ["fit", GLTF, "--model", "gltf_pbr", "--json", "--export", f"gltf:{gltf}",
             "--export", f"pbrt:{pbrt}"]  # fmt: skip
-    code, stdout, err = run(capsys, *argv)
+    code, stdout, err = run_cli(capsys, *argv)
     assert code == 0, err
     result = json.loads(stdout)
     assert result["model"] == "gltf_pbr"
@@ -69,8 +62,8 @@ def test_fit_with_export_keeps_stdout_json(capsys, tmp_path):
 def test_preview_is_a_png(capsys, tmp_path, result_json):
     pytest.importorskip("mitsuba", reason="Mitsuba 3 (pip install mitsuba) is absent")
     png = tmp_path / "p.png"
-    code, _, err = run(capsys, "export", result_json, "--to", "gltf", "--out",
-                       tmp_path / "m.gltf", "--preview", png)  # fmt: skip
+    code, _, err = run_cli(capsys, "export", result_json, "--to", "gltf", "--out",
+                           tmp_path / "m.gltf", "--preview", png)  # fmt: skip
     assert code == 0, err
     assert png.read_bytes()[:8] == PNG_SIGNATURE
 
@@ -83,18 +76,18 @@ def test_preview_is_a_png(capsys, tmp_path, result_json):
     ],
 )
 def test_bad_arguments_are_one_line(capsys, tmp_path, result_json, argv, message):
-    code, _, err = run(capsys, "export", result_json, "--out", tmp_path / "x", *argv)
+    code, _, err = run_cli(capsys, "export", result_json, "--out", tmp_path / "x", *argv)
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1
 
 
 def test_not_a_result_is_named(capsys, tmp_path):
-    code, _, err = run(capsys, "export", GLTF, "--to", "gltf", "--out", tmp_path / "x")
+    code, _, err = run_cli(capsys, "export", GLTF, "--to", "gltf", "--out", tmp_path / "x")
     assert code == 2 and "is not JSON" in err and "brdffit fit --json" in err
     bad = tmp_path / "r.json"
     bad.write_text(json.dumps({"model": "gltf_pbr", "params": {"roughness": 5}}))
-    code, _, err = run(capsys, "export", bad, "--to", "gltf", "--out", tmp_path / "x")
+    code, _, err = run_cli(capsys, "export", bad, "--to", "gltf", "--out", tmp_path / "x")
     assert code == 2 and "gltf_pbr needs a value for base_color" in err
-    code, _, err = run(capsys, "fit", GLTF, "--model", "gltf_pbr", "--export", "gltf")
+    code, _, err = run_cli(capsys, "fit", GLTF, "--model", "gltf_pbr", "--export", "gltf")
     assert code == 2 and "TARGET:FILE" in err
 
 

@@ -9,24 +9,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import run_cli
 
 import brdffit
-from brdffit.cli.main import main
 from brdffit.words import plural
 
 ROOT = Path(__file__).resolve().parents[2]
 WARD = ROOT / "data_synthetic" / "ward.csv"
 
 
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 @pytest.mark.parametrize(("given", "meant"), [("GGX", "ggx"), ("Cook_Torrance", "cook_torrance")])
 def test_a_model_name_in_another_case_is_suggested(capsys, given, meant):
-    code, _, err = run(capsys, "fit", WARD, "--model", given)
+    code, _, err = run_cli(capsys, "fit", WARD, "--model", given)
     assert code == 2
     assert f"unknown model {given!r} (did you mean {meant}" in err
     with pytest.raises(brdffit.errors.ModelError, match=rf"did you mean {meant}"):
@@ -36,7 +30,7 @@ def test_a_model_name_in_another_case_is_suggested(capsys, given, meant):
 def test_counts_of_one_are_singular(capsys, tmp_path):
     one = tmp_path / "one.csv"
     one.write_text("theta_i,phi_i,theta_o,phi_o,value\n30,0,30,180,0.2\n")
-    code, _, err = run(capsys, "fit", one, "--model", "lambert")
+    code, _, err = run_cli(capsys, "fit", one, "--model", "lambert")
     assert code == 2
     assert "the data have 1 sample above the horizon but lambert has 1 free parameter " in err
     assert (plural(1, "sample"), plural(2, "sample"), plural(" 1", "step")) == (
@@ -68,7 +62,7 @@ def _table(out: str) -> list[list[str]]:
 
 
 def test_every_column_has_a_heading(capsys):
-    code, out, err = run(capsys, "fit", WARD, "--model", "ward", "--fixed", "kd=0.1")
+    code, out, err = run_cli(capsys, "fit", WARD, "--model", "ward", "--fixed", "kd=0.1")
     assert code == 0, err
     assert _table(out)[0] == ["parameter", "r", "g", "b", "note"]
     lines = out.splitlines()
@@ -94,7 +88,7 @@ def test_numbers_print_without_a_trailing_point_or_exponent(value, expected):
 def test_a_remapped_coefficient_prints_with_its_interval(capsys):
     path = ROOT / "data_synthetic" / "ashikhmin_shirley.csv"
     argv = ("fit", path, "--model", "ashikhmin_shirley", "--uncertainty", "--max-seconds", 5)
-    code, out, err = run(capsys, *argv)
+    code, out, err = run_cli(capsys, *argv)
     assert code == 0, err
     _, _, *rows = _table(out)
     rd = next(r for r in rows if r[0] == "rd")
@@ -124,24 +118,24 @@ def _spectral(tmp_path, kd):
 def test_many_channels_get_one_summary_row_per_parameter(capsys, tmp_path):
     kd = np.linspace(0.1, 0.7, 31)
     path, bands = _spectral(tmp_path, kd)
-    code, out, err = run(capsys, "fit", path, "--model", "lambert")
+    code, out, err = run_cli(capsys, "fit", path, "--model", "lambert")
     assert code == 0, err
     header, _, *rows = _table(out)
     assert header == ["parameter", "value", "note"] and len(rows) == 1
     assert rows[0][1] == "31 channels: min 0.1 (400nm), max 0.7 (700nm), median 0.4"
     assert "--every-channel prints one row per channel" in out
-    code, out, _ = run(capsys, "fit", path, "--model", "lambert", "--every-channel")
+    code, out, _ = run_cli(capsys, "fit", path, "--model", "lambert", "--every-channel")
     assert [r[0] for r in _table(out)[2:]] == [f"kd[{b}]" for b in bands]
 
 
 def test_rgb_fits_linear_srgb_in_the_same_units(capsys, tmp_path):
     path, _ = _spectral(tmp_path, np.full(31, 0.5))  # a grey: r = g = b = its albedo
-    code, out, err = run(capsys, "fit", path, "--model", "lambert", "--rgb", "--json")
+    code, out, err = run_cli(capsys, "fit", path, "--model", "lambert", "--rgb", "--json")
     assert code == 0, err
     import json
 
     got = json.loads(out)
     assert got["channels"] == ["r", "g", "b"]
     assert got["params"]["kd"] == pytest.approx([0.5, 0.5, 0.5], rel=1e-3)
-    code, _, err = run(capsys, "fit", WARD, "--model", "ward", "--rgb")
+    code, _, err = run_cli(capsys, "fit", WARD, "--model", "ward", "--rgb")
     assert code == 2 and "--rgb needs spectral channels" in err
