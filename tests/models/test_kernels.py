@@ -68,6 +68,14 @@ def test_the_smith_table_of_beckmann_matches_erf():
     assert np.max(np.abs(a * q / expected - 1.0)) < 3e-15
 
 
+def test_the_named_models_are_those_with_a_kernel():
+    """COMPILED_MODELS is written out (brdffit.kernels imports its bind module only in
+    install()); it names exactly the models that install() binds."""
+    from brdffit.kernels.bind import SPECS
+
+    assert sorted(kernels.COMPILED_MODELS) == sorted(SPECS)
+
+
 @pytest.mark.parametrize("name", kernels.COMPILED_MODELS)
 def test_every_named_model_is_bound_to_its_kernel(name):
     from brdffit.kernels.bind import CompiledDesign
