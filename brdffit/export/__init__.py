@@ -79,19 +79,19 @@ def export(result, target: str, data=None) -> Export:
 
 def _via_pbrt(material: Material, data) -> Export:
     q, notes = pbrt_parameters(material, data)
-    error = conversion_error(
-        material,
-        lambda wi, wo: Geometry(wi, wo).scatter(pbrt_values(Geometry(wi, wo), q)),
-        native_albedo(Material(pbrt_model(q), {"scale": 1.0}, material.channels)),
-        data,
-    )
+    native = Material(pbrt_model(q), {"scale": 1.0}, material.channels)
+
+    def evaluate(wi, wo):
+        geometry = Geometry(wi, wo)
+        return geometry.scatter(pbrt_values(geometry, q))
+
+    error = conversion_error(material, evaluate, native_albedo(native), data)
     notes = (
         *notes,
         "pbrt's mix of diffuse and conductor, fitted and evaluated here from pbrt-v4's "
         "formulas (height-correlated G, exact Fresnel); roughness is alpha "
         "(remaproughness false).",
     )
-    native = Material(pbrt_model(q), {"scale": 1.0}, material.channels)
     return Export(pbrt_statement(q), "pbrt", q, {**error, "exact": False}, notes, native, "pbrt")
 
 

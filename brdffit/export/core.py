@@ -28,6 +28,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..fitting import fit
 from ..fitting.result import FitResult
+from ..jsonable import jsonable
 from ..models import get_model
 from ..models.properties import albedo
 from ..synth import synthesize
@@ -198,22 +199,10 @@ class Export:
         return {
             "target": self.target,
             "document": self.document,
-            "parameters": _plain(dict(self.parameters)),
-            "conversion_error": _plain(dict(self.conversion_error)),
+            "parameters": jsonable(dict(self.parameters)),
+            "conversion_error": jsonable(dict(self.conversion_error)),
             "notes": list(self.notes),
         }
-
-
-def _plain(value):
-    if isinstance(value, Mapping):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
 
 
 def rgb(value, channels) -> list:
