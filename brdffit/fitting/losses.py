@@ -30,7 +30,7 @@ the number of values ``M * C`` (a mean), except for ``chi2``, which is a sum.
 
 The fitting engine solves the linear coefficients by weighted least squares
 in the Gauss-Newton linearisation of ``t`` (exact in one step for the losses
-whose transform is linear in ``f``: l2, cosine, relative, chi2; iterated for
+whose transform is linear in ``f``: l2, cosine, relative, chi2, mixed; iterated for
 log and cbrt), and always reports the exact loss.
 """
 
@@ -132,6 +132,12 @@ def _sigma(ctx):
     return ctx.sigma
 
 
+def _divided_by(scale: Callable[[LossContext], np.ndarray]):
+    """The transform ``t(f) = f / s`` and its derivative ``1 / s``, ``s = scale(ctx)``
+    (the losses that weight each value by a fixed scale: relative, chi2, mixed)."""
+    return (lambda f, ctx: f / scale(ctx), lambda f, ctx: np.ones_like(f) / scale(ctx))
+
+
 LOSSES: dict[str, Loss] = {
     loss.name: loss
     for loss in (
@@ -172,16 +178,14 @@ LOSSES: dict[str, Loss] = {
         ),
         Loss(
             "relative",
-            lambda f, ctx: f / _relative_scale(ctx),
-            lambda f, ctx: 1.0 / _relative_scale(ctx) * np.ones_like(f),
+            *_divided_by(_relative_scale),
             True,
             "mean of ((f - y) / max(|y|, 1e-3 max|y|))^2",
             "relative least squares",
         ),
         Loss(
             "chi2",
-            lambda f, ctx: f / _sigma(ctx),
-            lambda f, ctx: 1.0 / _sigma(ctx) * np.ones_like(f),
+            *_divided_by(_sigma),
             True,
             "sum of ((f - y) / sigma)^2",
             "chi-square with the data's sigma",
@@ -190,8 +194,7 @@ LOSSES: dict[str, Loss] = {
         ),
         Loss(
             "mixed",
-            lambda f, ctx: f / _noise_sigma(ctx),
-            lambda f, ctx: 1.0 / _noise_sigma(ctx) * np.ones_like(f),
+            *_divided_by(_noise_sigma),
             True,
             "sum of ((f - y) / s)^2, s^2 = a^2 + (b f)^2 estimated with the fit",
             "Carroll and Ruppert 1988, Transformation and Weighting in Regression, ch. 2-3",
