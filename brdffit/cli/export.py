@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from ..errors import ParameterError
+from .text import print_json
 
 __all__ = ["add_parser", "add_fit_option", "run", "export_after_fit"]
 
@@ -108,9 +109,8 @@ def run(args) -> int:
     rgl = args.data if args.data and Path(args.data).suffix == ".bsdf" else None
     e = _do(_load_result(args.result), args.to, args.out, data, args.preview, rgl)
     if args.json:
-        print(json.dumps(e.to_dict(), indent=2))
-    else:
-        print(f"wrote {args.out}\n{summary(e)}")
+        return print_json(e.to_dict())
+    print(f"wrote {args.out}\n{summary(e)}")
     return 0
 
 

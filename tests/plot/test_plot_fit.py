@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import PNG_SIGNATURE
 
 import brdffit
 
@@ -15,7 +16,6 @@ matplotlib = pytest.importorskip("matplotlib", reason="plots need the 'plot' ext
 from brdffit.plot.fit import fit_figure, plane_of_incidence, plot_fit  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture
