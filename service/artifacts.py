@@ -1,9 +1,9 @@
 """Pictures of a job: the fit plot, drawn on request, and the corner plot, drawn by the worker.
 
-- ``plot.png``: :func:`brdffit.plot_fit.plot_fit` (the planes of incidence,
+- ``plot.png``: :func:`brdffit.plot.fit.plot_fit` (the planes of incidence,
   measured and fitted, and the residuals) of any job that is done, drawn from
   the job's stored data and result the first time it is asked for, then kept.
-- ``corner.png``: :func:`brdffit.plots.corner_plot` of the posterior. It needs
+- ``corner.png``: :func:`brdffit.plot.corner.corner_plot` of the posterior. It needs
   the posterior's samples, which the job's JSON result does not carry, so the
   job's worker draws it when its fit is done, but only for jobs whose
   submitter asked for pictures (:func:`want`; ``POST /comparisons/file``, the
@@ -12,7 +12,7 @@
 
 The PNGs live in the table ``artifacts`` of the job's SQLite file, beside
 ``jobs``; ``GET /jobs/{id}/plot.png`` and ``GET /jobs/{id}/corner.png``
-(:mod:`service.routes_plots`) answer them. A plot that cannot be drawn is
+(:mod:`service.routes.plots`) answer them. A plot that cannot be drawn is
 logged and left out; it never fails the fit.
 """
 
