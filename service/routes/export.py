@@ -14,24 +14,14 @@ import brdffit
 
 from ..convert import located, measurements
 from ..deps import SettingsDep
-from ..schemas import DataIn, ErrorOut
+from ..schemas import DataIn
 from ..schemas.requests import ExportTarget as Target
 from ..schemas.results import ExportOut
+from .common import ERRORS
 
 __all__ = ["router", "ExportIn", "ExportOut"]
 
-ERRORS = {
-    413: {"model": ErrorOut, "description": "The body is larger than the server takes."},
-    422: {"model": ErrorOut, "description": "Input that cannot be used; `field` says which."},
-}
-
-router = APIRouter(
-    tags=["export"],
-    responses={
-        400: {"model": ErrorOut, "description": "A body that cannot be read at all."},
-        500: {"model": ErrorOut, "description": "A bug (logged)."},
-    },
-)
+router = APIRouter(tags=["export"])
 
 
 class FittedMaterialIn(BaseModel):
