@@ -19,21 +19,12 @@ from ..data.measurements import Measurements
 from ..errors import FormatError
 from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source, put_bytes
-from .table import from_table
+from .table import angle_unit_option, from_table
 
 __all__ = ["format_astm", "parse_astm", "read_astm", "write_astm"]
 
 #: ASTM names of the angle columns, mapped to brdffit's.
 _ASTM_ANGLES = {"theta_s": "theta_o", "phi_s": "phi_o"}
-
-
-def _unit_is_degrees(angle_unit: str) -> bool:
-    if angle_unit not in ("radians", "degrees"):
-        raise FormatError(
-            f"angle_unit={angle_unit!r} is not known; it must be 'radians' or 'degrees'",
-            "angle_unit",
-        )
-    return angle_unit == "degrees"
 
 
 def _starts_a_number(text: str) -> bool:
@@ -43,7 +34,7 @@ def _starts_a_number(text: str) -> bool:
 def parse_astm(text: str, where: str = "<astm text>", angle_unit: str = "radians",
                max_samples: int | None = DEFAULT_MAX_SAMPLES):  # fmt: skip
     """Measurements from the text of an ASTM E1392 file; ``where`` names it in errors."""
-    degrees = _unit_is_degrees(angle_unit)
+    degrees = angle_unit_option(angle_unit) == "degrees"
     header, key_lines, rows, lines = {}, {}, [], []
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()

@@ -37,25 +37,13 @@ from ..errors import FormatError
 from ..notes import note
 from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source, put_bytes
-from .table import SEPARATORS, from_table
+from .table import SEPARATORS, angle_unit_option, from_table
 
 __all__ = ["ANGLE_UNITS", "format_csv", "parse_csv", "read_csv", "write_csv"]
 
 #: The angle units a reader takes, and the words a file's comment may use for them.
 ANGLE_UNITS = {"degrees": "degrees", "degree": "degrees", "deg": "degrees",
                "radians": "radians", "radian": "radians", "rad": "radians"}  # fmt: skip
-
-
-def angle_unit_option(angle_unit) -> str | None:
-    """The reader option ``angle_unit`` checked: "degrees", "radians" or None."""
-    if angle_unit is None:
-        return None
-    if angle_unit not in ("degrees", "radians"):
-        raise FormatError(
-            f"angle_unit={angle_unit!r} is not known; it must be 'degrees' or 'radians'",
-            "angle_unit",
-        )
-    return angle_unit
 
 
 def _separator(line: str) -> str:
@@ -131,7 +119,7 @@ def parse_csv(text: str, where: str = "<csv text>", angle_unit: str | None = Non
     ``angle_unit`` ("degrees" or "radians") states the unit of the angles, over
     the file's ``# angle_unit:`` comment; with neither, degrees (module doc).
     """
-    angle_unit = angle_unit_option(angle_unit)
+    angle_unit = angle_unit_option(angle_unit, optional=True)
     meta, (names, header_line, sep), rows, lines = _header(text.splitlines(), where)
     check_samples(len(rows), max_samples, where, "counted in its rows")
     rows = _decimal_commas(rows, lines, sep, where)

@@ -19,7 +19,7 @@ from ..errors import FormatError
 from ..words import plural
 from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source
-from .table import build
+from .table import angle_unit_option, build
 
 __all__ = ["parse_pbrt", "read_pbrt"]
 
@@ -63,11 +63,7 @@ def parse_pbrt(text: str, where: str = "<pbrt text>", angle_unit: str = "radians
     The format's angles are radians; ``angle_unit="degrees"`` reads a file written
     in degrees.
     """
-    if angle_unit not in ("radians", "degrees"):
-        raise FormatError(
-            f"angle_unit={angle_unit!r} is not known; it must be 'radians' or 'degrees'",
-            "angle_unit",
-        )
+    angle_unit_option(angle_unit)
     tokens, lines = _tokens(text)
     if not tokens:
         raise FormatError(f"{where} holds no numbers; a pbrt .brdf file starts with W", "data")

@@ -20,7 +20,14 @@ from ..errors import DataError, FormatError
 from ..notes import note
 from ..words import plural
 
-__all__ = ["SEPARATORS", "build", "from_table", "number_table", "require_finite"]
+__all__ = [
+    "SEPARATORS",
+    "angle_unit_option",
+    "build",
+    "from_table",
+    "number_table",
+    "require_finite",
+]
 
 #: The column separators a table may use, with the names messages give them.
 SEPARATORS = {",": "comma", ";": "semicolon", "\t": "tab"}
@@ -83,6 +90,19 @@ def _is_number(text: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+def angle_unit_option(angle_unit, optional: bool = False) -> str | None:
+    """The readers' option ``angle_unit`` checked: "degrees" or "radians" (or None,
+    when ``optional``: the CSV reader then reads the unit from the file)."""
+    if angle_unit is None and optional:
+        return None
+    if angle_unit not in ("degrees", "radians"):
+        raise FormatError(
+            f"angle_unit={angle_unit!r} is not known; it must be 'degrees' or 'radians'",
+            "angle_unit",
+        )
+    return angle_unit
 
 
 def require_finite(table: np.ndarray, names: list, lines: list, where: str) -> None:

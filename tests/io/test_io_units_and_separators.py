@@ -105,6 +105,17 @@ def test_an_unknown_angle_unit_is_an_error_naming_the_field_or_the_line():
         brdffit.read(named(text.encode(), "w.csv"))
 
 
+@pytest.mark.parametrize("parse", ["parse_astm", "parse_pbrt"])
+def test_the_radian_formats_check_angle_unit_as_the_csv_reader_does(parse):
+    from brdffit.io import astm, pbrt
+
+    function = getattr(astm if parse == "parse_astm" else pbrt, parse)
+    for bad in ("gradians", None):
+        with pytest.raises(FormatError, match=rf"angle_unit={bad!r} is not known") as info:
+            function("", angle_unit=bad)
+        assert info.value.field == "angle_unit"
+
+
 def test_pbrt_and_astm_take_the_angle_unit_too():
     text = "1\n550\n10 0 20 180 0.5\n30 0 40 180 0.25\n"
     data = brdffit.read(named(text.encode(), "d.brdf"), angle_unit="degrees")
