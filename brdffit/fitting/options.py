@@ -245,9 +245,18 @@ def _positive_number(value) -> bool:
     )
 
 
-def _whole(value, name: str, least: int, *, below: int | None = None, optional: bool = False):
+def _whole(
+    value,
+    name: str,
+    least: int,
+    *,
+    below: int | None = None,
+    optional: bool = False,
+    alternative: str = "",
+):
     """``value`` as an int if it is a whole number in [least, below); the one wording of
-    "a whole number >= 1" errors in fitting (as in the posterior and the command line)."""
+    "a whole number >= 1" errors in fitting and the posterior (``alternative``, e.g.
+    "or 'auto'", ends the message when the option takes another value too)."""
     if value is None and optional:
         return None
     ok = isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= least
@@ -256,6 +265,8 @@ def _whole(value, name: str, least: int, *, below: int | None = None, optional: 
     need = f"a whole number >= {least}"
     if below is not None:
         need = f"a whole number in [{least}, {below - 1}]"
+    if alternative:
+        need += f" {alternative}"
     raise FitError(f"{name}={value!r} must be {need}", name)
 
 

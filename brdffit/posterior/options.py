@@ -8,9 +8,8 @@ from __future__ import annotations
 import difflib
 import math
 
-import numpy as np
-
 from ..errors import FitError
+from ..fitting.options import _whole
 from ..fitting.result import FitResult
 from .target import NOISE_MODELS
 
@@ -41,7 +40,7 @@ def _check_options(
         )
     _whole(walkers, "walkers", 1)
     if steps != "auto":
-        _whole(steps, "steps", 1, "or 'auto'")
+        _whole(steps, "steps", 1, alternative="or 'auto'")
     _whole(max_steps, "max_steps", 1)
     ok = max_seconds is None or (
         isinstance(max_seconds, (int, float))
@@ -77,9 +76,3 @@ def _default_noise(data, fit_result) -> str:
     if fit_result.loss_name == "mixed":
         return "mixed"
     return "given" if data.sigma is not None else "absolute"
-
-
-def _whole(value, name: str, least: int, alternative: str = ""):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
-        need = f"a whole number >= {least}" + (f" {alternative}" if alternative else "")
-        raise FitError(f"{name}={value!r} must be {need}", name)
