@@ -59,10 +59,10 @@ def batched_design(problem, shape_params, shapes: np.ndarray):
 def looped_design(problem, shape_params, shapes: np.ndarray):
     """The free columns and the offset from one call per row of ``shapes``."""
     p, g = problem, problem.geometry
-    designs = []
+    designs, fixed = [], _fixed_shape(p)
     for row in shapes:
         params = {q.name: float(v) for q, v in zip(shape_params, row)}
-        designs.append(p.model.design(g, {**params, **_fixed_shape(p)}))
+        designs.append(p.model.design(g, {**params, **fixed}))
     two_d = any(np.ndim(x) == 2 for d in designs for x in (*d.columns, d.offset))
 
     def stack(parts):
