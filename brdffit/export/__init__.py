@@ -119,7 +119,7 @@ def _closer_of(material: Material, data, blend: tuple) -> tuple:
     """The blend stand-in or a fitted ``principled``, whichever errs less."""
     aniso = get_model(material.model).classification.symmetry == "anisotropic"
     name = "mitsuba_principled" + ("_anisotropic" if aniso else "")
-    candidate, _ = to_native(material, name, data)
+    candidate = to_native(material, name, data)
     errors = [rms_log_error(material, m.evaluate, data) for m in (blend[1], candidate)]
     if errors[0] <= errors[1]:
         return blend

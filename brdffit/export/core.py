@@ -92,11 +92,11 @@ def reference_data(material: Material, data=None):
     return samples, "fitted BRDF (gonio grid)"
 
 
-def to_native(material: Material, native: str, data=None, fixed=None) -> tuple:
-    """Fit the target's native model to the material (or the data): (Material, FitResult)."""
+def to_native(material: Material, native: str, data=None) -> Material:
+    """The target's native model fitted to the material (or to the data)."""
     samples, _ = reference_data(material, data)
-    result = fit(samples, native, loss="log", fixed=fixed or {})
-    return Material(result.model, dict(result.params), tuple(samples.channels)), result
+    result = fit(samples, native, loss="log")
+    return Material(result.model, dict(result.params), tuple(samples.channels))
 
 
 def _rms_log(f: np.ndarray, y: np.ndarray, cos_i: np.ndarray) -> float:

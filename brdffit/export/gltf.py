@@ -35,7 +35,7 @@ def gltf_material(material: Material, data=None) -> tuple:
         return material, True, (TANGENT_NOTE,)
     aniso = get_model(material.model).classification.symmetry == "anisotropic"
     name = "gltf_pbr_anisotropic" if aniso else "gltf_pbr"
-    native, _ = to_native(material, name, data)
+    native = to_native(material, name, data)
     notes = (
         f"{material.model} is not glTF's BRDF: {name} was fitted to it; "
         "the error is that of the fitted glTF material.",

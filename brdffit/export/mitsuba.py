@@ -88,7 +88,7 @@ def mitsuba_parameters(material: Material, data=None) -> tuple:
     name = native_model(material)
     # kd + ks <= 1 per channel, so that blendbsdf's two reflectances can stay <= 1.
     model = replace(get_model(name), coefficient_constraints=(((1.0, 1.0), 1.0),))
-    native, _ = to_native(material, model, data)
+    native = to_native(material, model, data)
     notes = (
         f"{material.model} is not a Mitsuba BSDF: {name} (diffuse + GGX roughconductor, "
         "its eta and k free, so k = 0 gives a dielectric's Fresnel) was fitted to it; "

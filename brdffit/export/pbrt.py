@@ -61,7 +61,7 @@ PBRT_MIX = Model(
 
 def pbrt_parameters(material: Material, data=None) -> tuple:
     """(pbrt parameters, notes) from a material: PBRT_MIX fitted, then written."""
-    native, _ = to_native(material, PBRT_MIX, data)
+    native = to_native(material, PBRT_MIX, data)
     p = native.params
     kd, ks = np.asarray(rgb(p["kd"], native.channels)), np.asarray(rgb(p["ks"], native.channels))
     w = float(min(ks.max(), 1.0))
