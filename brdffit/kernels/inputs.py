@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from ..data.geometry import MIN_COSINE, Geometry
+from ..models.shared import schlick_weight, vcavity_g
 
 __all__ = [
     "ashikhmin_shirley_inputs",
@@ -51,7 +52,7 @@ def microfacet_inputs(g: Geometry) -> tuple:
         c2 = g.cos_h * g.cos_h
         factor = 1.0 / (4.0 * g.cos_i * g.cos_o * c2 * c2)
         tan2_i, tan2_o = _tan2_of(g.wi, g.cos_i), _tan2_of(g.wo, g.cos_o)
-        return g.tan2_h, tan2_i, tan2_o, factor, _pow5(1.0 - g.cos_d)
+        return g.tan2_h, tan2_i, tan2_o, factor, schlick_weight(g.cos_d)
 
     return g.cached("kernels.microfacet", compute)
 
@@ -78,9 +79,7 @@ def cook_torrance_inputs(g: Geometry) -> tuple:
 
     def compute():
         c2 = g.cos_h * g.cos_h
-        shadowing = np.minimum(
-            1.0, 2.0 * g.cos_h / np.maximum(g.cos_d, 1e-300) * np.minimum(g.cos_i, g.cos_o)
-        )
+        shadowing = vcavity_g(g.cos_h, g.cos_i, g.cos_o, g.cos_d)
         factor = shadowing / (4.0 * g.cos_i * g.cos_o) * (1.0 / (math.pi * c2 * c2))
         return g.tan2_h, np.log(factor), np.maximum(g.cos_d, 1e-300)
 
@@ -116,7 +115,7 @@ def ashikhmin_shirley_inputs(g: Geometry) -> tuple:
         diffuse = (1.0 - _pow5(1.0 - 0.5 * g.cos_i)) * (1.0 - _pow5(1.0 - 0.5 * g.cos_o))
         diffuse *= 28.0 / (23.0 * math.pi)
         along_t = g.cos2_phi_h * log_c
-        weight = _pow5(1.0 - g.cos_d)
+        weight = schlick_weight(g.cos_d)
         return along_t, g.sin2_phi_h * log_c, np.log(scale), weight, diffuse
 
     return g.cached("kernels.ashikhmin_shirley", compute)
