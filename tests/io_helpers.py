@@ -7,6 +7,7 @@ with the reading module's own code.
 
 from __future__ import annotations
 
+import io
 import math
 import struct
 import tracemalloc
@@ -14,7 +15,22 @@ import warnings
 
 import numpy as np
 
+import brdffit
 from brdffit.data.measurements import Measurements
+
+
+def named(raw: bytes, name: str) -> io.BytesIO:
+    """``raw`` as a binary file object called ``name`` (the readers take its extension)."""
+    f = io.BytesIO(raw)
+    f.name = name
+    return f
+
+
+def quiet_read(source, **options):
+    """``brdffit.read`` with its notes (UserWarning) silenced."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return brdffit.read(source, **options)
 
 
 def peak_of(function) -> tuple:

@@ -8,18 +8,12 @@ import zipfile
 
 import numpy as np
 import pytest
-from io_helpers import pack_tensor, rgb_data, tiny_rgl
+from io_helpers import named, pack_tensor, rgb_data, tiny_rgl
 
 import brdffit
 import brdffit.io as bio
 from brdffit.errors import DataError, FormatError
 from brdffit.io.merl import RES_PHI_D, RES_THETA_D, RES_THETA_H, write_merl_table
-
-
-def named(raw: bytes, name: str) -> io.BytesIO:
-    f = io.BytesIO(raw)
-    f.name = name
-    return f
 
 
 def npz_of(**changes) -> bytes:

@@ -10,19 +10,13 @@ import zlib
 
 import numpy as np
 import pytest
-from io_helpers import peak_of, small_files
+from io_helpers import named, peak_of, small_files
 
 import brdffit
 from brdffit.errors import FormatError
 from brdffit.io import DEFAULT_MAX_SAMPLES
 
 SMALL = small_files()
-
-
-def named(raw: bytes, name: str) -> io.BytesIO:
-    f = io.BytesIO(raw)
-    f.name = name
-    return f
 
 
 def npy_header(shape, descr="<f8") -> bytes:

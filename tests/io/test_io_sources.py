@@ -3,12 +3,19 @@
 from __future__ import annotations
 
 import io
-import warnings
 
 import numpy as np
 import pytest
 from io_helpers import MAGIC as MBSDF_MAGIC
-from io_helpers import REFLECTION, pack_block, pack_tensor, pbrt_text, rgb_data, tiny_rgl
+from io_helpers import (
+    REFLECTION,
+    pack_block,
+    pack_tensor,
+    pbrt_text,
+    quiet_read,
+    rgb_data,
+    tiny_rgl,
+)
 
 from brdffit import Measurements, read, write
 from brdffit.errors import FormatError
@@ -43,12 +50,6 @@ def _file(tmp_path, name: str):
     else:
         path.write_bytes(pack_tensor(tiny_rgl()))
     return path
-
-
-def quiet_read(source, **kwargs):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        return read(source, **kwargs)
 
 
 def assert_same_data(a, b):

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import io
-import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from io_helpers import named, quiet_read
 
 import brdffit
 from brdffit.errors import FormatError
@@ -30,18 +29,6 @@ def in_radians(text: str) -> str:
             line = ",".join(fields)
         out.append(line)
     return "\n".join(out) + "\n"
-
-
-def named(raw: bytes, name: str) -> io.BytesIO:
-    f = io.BytesIO(raw)
-    f.name = name
-    return f
-
-
-def quiet_read(source, **options):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        return brdffit.read(source, **options)
 
 
 # ------------------------------------------------------------------ angle units
