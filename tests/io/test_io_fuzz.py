@@ -12,7 +12,6 @@ its index.
 
 from __future__ import annotations
 
-import io
 import re
 import struct
 import warnings
@@ -21,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from helpers import SHARED_DATA
-from io_helpers import peak_of, small_files
+from io_helpers import named, peak_of, small_files
 
 import brdffit
 from brdffit.errors import BrdfFitError
@@ -65,8 +64,7 @@ def mutate(raw: bytes, rng: np.random.Generator, text: bool) -> tuple[str, bytes
 
 def read_traced(name: str, raw: bytes):
     """What reading gives (Measurements or the exception) and the traced peak in bytes."""
-    source = io.BytesIO(raw)
-    source.name = name
+    source = named(raw, name)
 
     def read():
         with warnings.catch_warnings():
