@@ -1,6 +1,6 @@
 """The rows of a batch: one frozen record per (source, model) pair.
 
-A row holds either the :class:`~brdffit.result.FitResult` of the pair or the
+A row holds either the :class:`~brdffit.fitting.result.FitResult` of the pair or the
 error that stopped it (its message and its type), never both, with the time
 the pair took on its worker and the worker's address. ``to_dict()`` is strict
 JSON (no NaN or infinity), the form ``brdffit batch`` writes one line of.
@@ -11,8 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
+from ..fitting.result import FitResult
 from ..jsonable import jsonable
 
 __all__ = ["BatchRow", "RowError", "pair_key"]
@@ -81,7 +80,7 @@ class BatchRow:
     def from_dict(cls, d: dict) -> BatchRow:
         """A row back from its :meth:`to_dict` (a resumed batch); a posterior stays a dict."""
         error = RowError(**d["error"]) if d.get("error") else None
-        result = _result_from_dict(d["result"]) if d.get("result") else None
+        result = FitResult.from_dict(d["result"]) if d.get("result") else None
         return cls(
             d["source"], d["model"], result, error, float(d.get("seconds") or 0.0),
             d.get("worker") or "", d.get("heldout_rmse"), d.get("heldout_loss"),
@@ -102,26 +101,6 @@ class BatchRow:
                 "result": None if self.result is None else self.result.to_dict(),
             }
         )
-
-
-def _result_from_dict(d: dict):
-    from brdffit.fitting.result import FitResult
-
-    def number(v):
-        return float("nan") if v is None else v
-
-    params = {k: np.asarray(v, float) if isinstance(v, list) else number(v)
-              for k, v in d["params"].items()}  # fmt: skip
-    return FitResult(
-        model=d["model"], params=params, loss=number(d["loss"]), loss_name=d["loss_name"],
-        metrics={k: number(v) for k, v in d["metrics"].items()},
-        n_samples=d["n_samples"], n_channels=d["n_channels"], n_values=d["n_values"],
-        n_params=d["n_params"], n_evals=d["n_evals"], seconds=d["seconds"],
-        converged=d["converged"], message=d["message"], channels=tuple(d["channels"]),
-        fixed=d["fixed"], options=d["options"], at_bounds=tuple(d["at_bounds"]),
-        posterior=d.get("posterior"), unidentified=d.get("unidentified") or {},
-        noise=d.get("noise"), misfit=d.get("misfit"),
-    )  # fmt: skip
 
 
 def pair_key(source: str, model: str) -> tuple:

@@ -137,6 +137,29 @@ class FitResult:
             out["posterior"] = self.posterior.to_dict()
         return out
 
+    @classmethod
+    def from_dict(cls, d: Mapping) -> FitResult:
+        """A FitResult from its :meth:`to_dict` (a JSON line, a job's stored result):
+        ``null`` numbers are NaN again and per-channel lists arrays; the posterior stays
+        the plain dict it was (its samples are not in the JSON), and the per-sample
+        weights are not carried (``options`` keeps their summary)."""
+
+        def number(v):
+            return math.nan if v is None else v
+
+        params = {k: np.asarray(v, dtype=float) if isinstance(v, list) else number(v)
+                  for k, v in d["params"].items()}  # fmt: skip
+        return cls(
+            model=d["model"], params=params, loss=number(d["loss"]), loss_name=d["loss_name"],
+            metrics={k: number(v) for k, v in d["metrics"].items()},
+            n_samples=d["n_samples"], n_channels=d["n_channels"], n_values=d["n_values"],
+            n_params=d["n_params"], n_evals=d["n_evals"], seconds=d["seconds"],
+            converged=d["converged"], message=d["message"], channels=tuple(d["channels"]),
+            fixed=d["fixed"], options=d["options"], at_bounds=tuple(d["at_bounds"]),
+            posterior=d.get("posterior"), unidentified=d.get("unidentified") or {},
+            noise=d.get("noise"), misfit=d.get("misfit"),
+        )  # fmt: skip
+
     def __str__(self) -> str:
         lines = [
             f"{self.model}: {self.loss_name} loss {self.loss:.6g}, rmse {self.metrics['rmse']:.6g}"
