@@ -31,20 +31,23 @@ def _moments_loop():
     return moments
 
 
+#: One entry, the problem being fitted: weak references to its weights (None when
+#: unweighted) and weighted targets, and the values derived from them.
 _constant_cache: list = []
 
 
 def _constants(w, wy) -> tuple:
     """``S0``, ``T0`` and the weighted targets transposed to (C, M), contiguous, for
     the loop's per-channel sums; computed once per (weights, targets) (a fit solves
-    the same targets thousands of times)."""
-    for key_w, key_wy, values in _constant_cache:
-        if key_w is w and key_wy is wy:
+    the same targets thousands of times). The cache refers to the arrays weakly, so
+    it does not keep a finished problem's arrays alive."""
+    for ref_w, ref_wy, values in _constant_cache:
+        if ref_wy() is wy and (w is None if ref_w is None else ref_w() is w):
             return values
     s0 = float(wy.shape[0]) if w is None else float(np.sum(w))
     values = (s0, wy.sum(axis=0), np.ascontiguousarray(wy.T, dtype=float))
-    _constant_cache[:] = [(w, wy, values)]  # one entry: the problem being fitted
-    weakref.finalize(wy, _constant_cache.clear)  # freed with the problem's targets
+    _constant_cache[:] = [(None if w is None else weakref.ref(w), weakref.ref(wy), values)]
+    weakref.finalize(wy, _constant_cache.clear)  # the copy wy.T goes with the targets
     return values
 
 
