@@ -19,15 +19,11 @@ logged and left out; it never fails the fit.
 from __future__ import annotations
 
 import logging
-import math
 import sqlite3
 import tempfile
 import threading
 from contextlib import closing
 from pathlib import Path
-from types import SimpleNamespace
-
-import numpy as np
 
 from .store import data_from_bytes
 
@@ -114,15 +110,11 @@ def fit_plot(store_path, job: dict) -> bytes | None:
         row = db.execute("SELECT data FROM jobs WHERE id = ?", (job["id"],)).fetchone()
     if row is None:
         return None
+    from brdffit.fitting import FitResult
     from brdffit.plot.fit import plot_fit
 
     data, out = data_from_bytes(bytes(row[0])), job["result"]
-    result = SimpleNamespace(
-        model=out["model"], loss_name=out["loss_name"], converged=out["converged"],
-        loss=math.nan if out["loss"] is None else out["loss"],
-        metrics={"rmse": math.nan, **{k: v for k, v in out["metrics"].items() if v is not None}},
-        params={k: np.asarray(v, dtype=float) for k, v in out["params"].items()},
-    )  # fmt: skip
+    result = FitResult.from_dict(out)
     with _PYPLOT:
         png = _png(lambda path: plot_fit(data, result, path))
     if png is not None:

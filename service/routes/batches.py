@@ -23,7 +23,15 @@ from ..deps import RunnerDep, SettingsDep, StoreDep
 from ..errors import ApiError
 from ..schemas import JobOut
 from ..store import data_to_bytes
-from .common import ERRORS, ChannelsField, FormatField, OptionsField, SubsampleField, form_options
+from .common import (
+    ERRORS,
+    ChannelsField,
+    FormatField,
+    OptionsField,
+    SubsampleField,
+    form_options,
+    stored_options,
+)
 
 __all__ = ["router", "MAX_PAIRS"]
 
@@ -85,7 +93,8 @@ def create_batch(
     if len(files) * len(names) > MAX_PAIRS:
         raise ApiError(422, f"{len(files)} files x {len(names)} models is more than "
                        f"{MAX_PAIRS} pairs; split the batch", "files")  # fmt: skip
-    kwargs = fit_kwargs(form_options(options), settings.job_timeout)
+    options_in = form_options(options)
+    kwargs = fit_kwargs(options_in, settings.job_timeout)
     read = _read_all(settings.max_samples, files, format, subsample, channels)
     for _, data, _ in read:
         for name in names:
@@ -94,7 +103,7 @@ def create_batch(
     for filename, data, notes in read:
         blob = data_to_bytes(data)
         for name in names:
-            job = store.create(name, kwargs, blob, notes)
+            job = store.create(name, stored_options(kwargs, options_in.export), blob, notes)
             runner.submit(job["id"], job["attempt"])
             jobs.append({"file": filename, "model": name, "job": job})
     return {"jobs": jobs}

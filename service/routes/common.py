@@ -51,3 +51,9 @@ def form_options(options: str) -> FitOptions:
     except ValidationError as exc:
         errors = [{**e, "loc": ("options", *e["loc"])} for e in exc.errors()]
         raise RequestValidationError(errors) from None
+
+
+def stored_options(kwargs: dict, export) -> dict:
+    """What a job stores: the fit's keyword arguments and, when asked, the export targets
+    its worker makes after the fit (``POST /jobs``, ``/batches``, ``/comparisons``)."""
+    return {**kwargs, "export": list(export)} if export else kwargs

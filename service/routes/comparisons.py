@@ -25,7 +25,7 @@ from ..errors import ApiError
 from ..schemas import ErrorOut
 from ..store import data_to_bytes
 from .common import ERRORS as FORM_ERRORS
-from .common import FileField, FormatField, OptionsField, form_options
+from .common import FileField, FormatField, OptionsField, form_options, stored_options
 
 __all__ = ["router"]
 
@@ -115,7 +115,7 @@ def create_comparison(
     blob = data_to_bytes(train)
     jobs = []
     for name in names:
-        job = store.create(name, kwargs, blob, notes)
+        job = store.create(name, stored_options(kwargs, fit_options.export), blob, notes)
         artifacts.want(store.path, job["id"])
         runner.submit(job["id"], job["attempt"])
         jobs.append(job["id"])

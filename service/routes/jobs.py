@@ -21,6 +21,7 @@ from .common import (
     OptionsField,
     SubsampleField,
     form_options,
+    stored_options,
 )
 
 __all__ = ["router"]
@@ -36,8 +37,7 @@ def _submit(store, runner, response: Response, model: str, kwargs: dict, data, n
     not a failed job later), store it (with its ``export`` targets, made by the
     worker after the fit), then hand it to a worker."""
     brdffit.check_fit(data, model, **kwargs)
-    stored = {**kwargs, "export": list(export)} if export else kwargs
-    job = store.create(model, stored, data_to_bytes(data), notes)
+    job = store.create(model, stored_options(kwargs, export), data_to_bytes(data), notes)
     runner.submit(job["id"], job["attempt"])
     response.headers["Location"] = f"/jobs/{job['id']}"
     return job

@@ -57,3 +57,12 @@ def test_an_unknown_model_refuses_the_batch(client):
     assert answer.status_code == 422 and "wardd" in answer.json()["message"]
     answer = client.post("/batches", files=_files("ward.csv"), data={"models": " , "})
     assert answer.status_code == 422 and answer.json()["field"] == "models"
+
+
+def test_a_batch_job_makes_the_exports_its_options_ask_for(client):
+    answer = client.post("/batches", files=_files("ward.csv"),
+                         data={"models": "ward", "options": '{"export": ["gltf"]}'})  # fmt: skip
+    assert answer.status_code == 202, answer.text
+    done = wait_for(client, answer.json()["jobs"][0]["job"]["id"])
+    assert done["status"] == "done", done
+    assert [e["target"] for e in done["result"]["exports"]] == ["gltf"]
