@@ -6,8 +6,9 @@ is wrong (a parameter, a column, an option) so that the command line and the
 HTTP service can point at it without parsing the message.
 
 A part of brdffit whose optional dependencies are not installed (plots, the web
-service, colour conversion, batch fits, export previews) raises :class:`MissingExtraError`, an ``ImportError``
-whose one-line message names the extra to install.
+service, colour conversion, batch fits, export previews) raises
+:class:`MissingExtraError`, an ``ImportError`` whose one-line message names the
+extra to install.
 """
 
 from __future__ import annotations
