@@ -103,14 +103,17 @@ def tonemap(linear) -> np.ndarray:
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
 
 
-def _caption(e, what: str) -> str:
-    """``what`` and the conversion error of the Export ``e`` (two short lines)."""
-    err = e.conversion_error
-    kind = "exact" if err["exact"] else "approximate"
-    return (
-        f"{what}: {kind}\nRMS ln(1 + f cos) {err['rms_log_target']:.4g} (fit: "
-        f"{err['rms_log_fit']:.4g})\nagainst the {err['against']}"
-    )
+def _caption(exports) -> str:
+    """One line per Export (what, exact or not, its error), then what the error is."""
+    lines = []
+    for what, e in exports:
+        err = e.conversion_error
+        kind = "exact" if err["exact"] else "approximate"
+        lines.append(f"{what}: {kind}, RMS {err['rms_log_target']:.4g}")
+    err = exports[-1][1].conversion_error
+    lines += [f"RMS of ln(1 + f cos) against the {err['against']}",
+              f"(the fit's own: {err['rms_log_fit']:.4g})"]  # fmt: skip
+    return "\n".join(lines)
 
 
 def _fit_raster(result, data, title) -> np.ndarray:
@@ -130,10 +133,10 @@ def _fit_raster(result, data, title) -> np.ndarray:
 
 def _panels(spheres, mitsuba, target, fit_image):
     """(image or text, caption, gid) per panel, left to right."""
-    what = "Mitsuba export, rendered"
+    exports = [("Mitsuba export, rendered", mitsuba)]
     if target is not None and target.target != mitsuba.target:
-        what = f"{_caption(target, f'{target.target} export')}\n{what}"
-    panels = [(tonemap(spheres[0]), _caption(mitsuba, what), "export")]
+        exports.insert(0, (f"{target.target} export", target))
+    panels = [(tonemap(spheres[0]), _caption(exports), "export")]
     if len(spheres) > 1:
         panels.append((tonemap(spheres[1]), "measured (Mitsuba measured plugin)\nsame light",
                        "measured"))  # fmt: skip

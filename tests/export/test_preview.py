@@ -71,8 +71,8 @@ def test_fit_plot_beside_the_rendered_export(tmp_path, conductor):
     assert (fit < 200).mean() > 0.01  # lines and points drawn, not an empty panel
     _not_blank_sphere(sphere)
     captions = " ".join(t.get_text() for t in fig.texts)
-    assert "Mitsuba export, rendered: exact" in captions
-    assert f"{mitsuba.conversion_error['rms_log_target']:.4g}" in captions
+    rms = mitsuba.conversion_error["rms_log_target"]
+    assert f"Mitsuba export, rendered: exact, RMS {rms:.4g}" in captions
 
 
 def test_rgl_file_gives_three_panels(tmp_path):
@@ -90,7 +90,8 @@ def test_rgl_file_gives_three_panels(tmp_path):
         _not_blank_sphere(panels[name])
     assert np.abs(panels["export"] - panels["measured"]).mean() > 1  # two materials
     captions = " ".join(t.get_text() for t in fig.texts)
-    assert "gltf export: exact" in captions and "Mitsuba export, rendered" in captions
+    assert f"gltf export: exact, RMS {gltf.conversion_error['rms_log_target']:.4g}" in captions
+    assert "Mitsuba export, rendered: approximate" in captions
     assert "measured (Mitsuba measured plugin)" in captions
 
 
