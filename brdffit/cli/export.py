@@ -128,9 +128,9 @@ def preview(path: str, result, data, source, exports=()) -> None:
 
     mitsuba = next((e for e in exports if e.target == "mitsuba"), None)
     mitsuba = mitsuba or export(result, "mitsuba", data=data)
-    target = next((e for e in exports if e.target != "mitsuba"), None)
+
     rgl = source if source and Path(source).suffix.lower() == ".bsdf" else None
-    write_preview(path, mitsuba, result, data, target=target, measured=rgl, title=source)
+    write_preview(path, mitsuba, result, data, targets=exports, measured=rgl, title=source)
     missing = "" if data is not None else f"; {NO_DATA} (give --data FILE to draw it)"
     sys.stderr.write(f"wrote {path}{missing}\n")
 

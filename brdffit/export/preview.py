@@ -131,11 +131,10 @@ def _fit_raster(result, data, title) -> np.ndarray:
     return matplotlib.image.imread(buffer, format="png")
 
 
-def _panels(spheres, mitsuba, target, fit_image):
+def _panels(spheres, mitsuba, targets, fit_image):
     """(image or text, caption, gid) per panel, left to right."""
-    exports = [("Mitsuba export, rendered", mitsuba)]
-    if target is not None and target.target != mitsuba.target:
-        exports.insert(0, (f"{target.target} export", target))
+    exports = [(f"{e.target} export", e) for e in targets if e is not mitsuba]
+    exports.append(("Mitsuba export, rendered", mitsuba))
     panels = [(tonemap(spheres[0]), _caption(exports), "export")]
     if len(spheres) > 1:
         panels.append((tonemap(spheres[1]), "measured (Mitsuba measured plugin)\nsame light",
@@ -143,7 +142,7 @@ def _panels(spheres, mitsuba, target, fit_image):
     return [(fit_image, "the fit against the data (brdffit)", "fit"), *panels]
 
 
-def preview_figure(mitsuba, result=None, data=None, *, target=None, measured=None,
+def preview_figure(mitsuba, result=None, data=None, *, targets=(), measured=None,
                    title=None, size=192, spp=64, seed=0):  # fmt: skip
     """The picture of :func:`write_preview`, not yet saved (its axes carry gids
     ``fit``, ``export``, ``measured``). Parameters are as for :func:`write_preview`."""
@@ -151,7 +150,7 @@ def preview_figure(mitsuba, result=None, data=None, *, target=None, measured=Non
     spheres = render_spheres(mitsuba.document, size, spp, seed, measured)
     have_data = result is not None and data is not None
     fit_image = _fit_raster(result, data, title) if have_data else None
-    return _compose(_panels(spheres, mitsuba, target, fit_image))
+    return _compose(_panels(spheres, mitsuba, targets, fit_image))
 
 
 def _compose(panels):
@@ -187,7 +186,7 @@ def _compose(panels):
     return fig
 
 
-def write_preview(path, mitsuba, result=None, data=None, *, target=None, measured=None,
+def write_preview(path, mitsuba, result=None, data=None, *, targets=(), measured=None,
                   title=None, size=192, spp=64, seed=0) -> Path:  # fmt: skip
     """Write one PNG: the fit's plot beside a sphere rendered with the Mitsuba export.
 
@@ -202,8 +201,9 @@ def write_preview(path, mitsuba, result=None, data=None, *, target=None, measure
         the left panel. Without either, the panel says :data:`NO_DATA`.
     data : Measurements, optional
         The data the fit was made on.
-    target : Export, optional
-        The export the user asked for, when not Mitsuba: its error is written too.
+    targets : sequence of Export
+        The exports the user asked for: the error of each that is not the rendered
+        Mitsuba export is written too.
     measured : path, optional
         An RGL ``.bsdf`` file: a third panel, Mitsuba's ``measured`` BSDF of it.
     title : str, optional
@@ -211,7 +211,7 @@ def write_preview(path, mitsuba, result=None, data=None, *, target=None, measure
     size, spp, seed : int
         Pixels per side of a sphere, samples per pixel, Mitsuba's seed.
     """
-    fig = preview_figure(mitsuba, result, data, target=target, measured=measured, title=title,
+    fig = preview_figure(mitsuba, result, data, targets=targets, measured=measured, title=title,
                          size=size, spp=spp, seed=seed)  # fmt: skip
     path = Path(path)
     _save_small(fig, path)

@@ -81,7 +81,7 @@ def test_rgl_file_gives_three_panels(tmp_path):
     result = brdffit.fit(data, "gltf_pbr", loss="log")
     gltf = brdffit.export(result, "gltf", data=data)
     mitsuba = brdffit.export(result, "mitsuba", data=data)
-    kwargs = {"target": gltf, "measured": rgl, **SMALL}
+    kwargs = {"targets": [gltf, mitsuba], "measured": rgl, **SMALL}
     png = write_preview(tmp_path / "p.png", mitsuba, result, data, **kwargs)
     fig = preview_figure(mitsuba, result, data, **kwargs)
     panels = _panels(fig, png)
