@@ -3,6 +3,7 @@ export (and of the measured RGL file), each panel where the layout says, none bl
 
 from __future__ import annotations
 
+import importlib
 import json
 import sys
 from pathlib import Path
@@ -150,3 +151,37 @@ def test_tonemap_is_the_inverse_of_the_srgb_decoding():
     np.testing.assert_allclose(decoded, x, atol=1e-12)
     clipped = tonemap([-1.0, 2.0, np.inf, np.nan])
     np.testing.assert_allclose(clipped, [0.0, 1.0, 1.0, 0.0], atol=1e-12)
+
+
+@pytest.fixture
+def recorded(monkeypatch):
+    """The calls of write_preview that the command line makes (nothing rendered)."""
+    module = importlib.import_module("brdffit.export.preview")
+    calls = []
+    monkeypatch.setattr(module, "write_preview", lambda *a, **k: calls.append((a, k)))
+    return calls
+
+
+def test_cli_passes_an_rgl_file_as_measured_and_a_csv_not(capsys, tmp_path, recorded, conductor):
+    rgl = shared_file("rgl", "satin_rosaline_rgb.bsdf")
+    _, result, _ = conductor
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(result.to_dict()))
+    for source in (CONDUCTOR, rgl):
+        argv = ["export", path, "--to", "mitsuba-xml", "--out", tmp_path / "m.xml", "--data",
+                source, "--preview", "p.png"]  # fmt: skip
+        code, _, err = run_cli(capsys, *argv)
+        assert code == 0, err
+    (_, first), (args, second) = recorded
+    assert first["measured"] is None and second["measured"] == str(rgl)
+    assert [e.target for e in second["targets"]] == ["mitsuba-xml"] and args[1].target == "mitsuba"
+    assert args[3].source and second["title"] == str(rgl)  # the data, for the fit's plot
+
+
+def test_cli_fit_preview_without_export_renders_a_mitsuba_export(capsys, recorded):
+    code, _, err = run_cli(capsys, "fit", CONDUCTOR, "--model", "mitsuba_roughconductor",
+                           "--preview", "p.png")  # fmt: skip
+    assert code == 0, err
+    ((args, kwargs),) = recorded
+    assert args[1].target == "mitsuba" and args[1].conversion_error["exact"]
+    assert args[2].model == "mitsuba_roughconductor" and kwargs["targets"] == []
