@@ -15,7 +15,7 @@ import brdffit
 from ..errors import BrdfFitError
 from ..extras import require
 from ..models.base import HIGHLIGHTS, OPERANDS, ORIGINS, SYMMETRIES
-from .export import export_after_fit
+from .export import check_preview, export_after_fit
 from .text import evaluate_csv, fit_text, models_text, print_json, progress_for, shout
 
 __all__ = [
@@ -150,6 +150,7 @@ def cmd_fit(args) -> int:
     """``brdffit.fit(brdffit.read(file), model, **options)``, with ``--plot`` PNGs."""
     if args.plot:
         require("matplotlib", "plot")  # before the fit, not after it
+    check_preview(args)
     data = read_data(args)
     fit_progress = progress_for(args, f"fitting {args.model}")
     post_progress = progress_for(args, "sampling", args.max_seconds or 60.0)

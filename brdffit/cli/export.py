@@ -2,9 +2,11 @@
 
 The result file is what ``brdffit fit --json`` prints (the fit's ``to_dict()``).
 The export's conversion error is printed: as a few lines for a person, or with
-``--json`` as the export's ``to_dict()``. ``--preview PNG`` renders a sphere
-with the material in Mitsuba 3 (beside Mitsuba's ``measured`` rendering of the
-data when ``--data`` is an RGL ``.bsdf`` file).
+``--json`` as the export's ``to_dict()``. ``--preview PNG`` writes one picture
+(:func:`brdffit.export.preview.write_preview`): the fit's plot against the data
+(when the data are at hand), beside a sphere rendered by Mitsuba 3 with the
+material's Mitsuba export and, when the data are an RGL ``.bsdf`` file, beside
+Mitsuba's ``measured`` rendering of that file.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from pathlib import Path
 from ..errors import ParameterError
 from .text import print_json
 
-__all__ = ["add_parser", "add_fit_option", "run", "export_after_fit"]
+__all__ = ["add_parser", "add_fit_option", "check_preview", "export_after_fit", "preview", "run"]
 
 
 def add_parser(subparsers) -> None:
@@ -32,7 +34,9 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--preview",
         metavar="PNG",
-        help="render a sphere with it in Mitsuba (beside the measurement for RGL .bsdf data)",
+        help="write a picture: the fit's plot (with --data) beside a sphere rendered with "
+        "the material in Mitsuba (and beside Mitsuba's rendering of RGL .bsdf data); "
+        "needs the 'export' and 'plot' extras",
     )
     p.add_argument("--json", action="store_true", help="print the export as one JSON object")
     p.set_defaults(run=run)
@@ -46,6 +50,22 @@ def add_fit_option(parser) -> None:
         metavar="TARGET:FILE",
         help="also export the fitted material (repeatable), e.g. gltf:material.gltf",
     )
+    parser.add_argument(
+        "--preview",
+        metavar="PNG",
+        help="write a picture: the fit's plot beside a sphere rendered with the material in "
+        "Mitsuba (and beside Mitsuba's rendering of RGL .bsdf data); needs the 'export' "
+        "and 'plot' extras",
+    )
+
+
+def check_preview(args) -> None:
+    """Before any work: a ``--preview`` needs Mitsuba and matplotlib (one-line errors)."""
+    if getattr(args, "preview", None):
+        from ..extras import require
+
+        require("mitsuba", "export")
+        require("matplotlib", "plot")
 
 
 def _load_result(path: str) -> dict:
@@ -89,25 +109,41 @@ def _row(values) -> str:
     return " ".join(f"{v:.3f}" for v in values)
 
 
-def _do(result, target: str, out: str, data, preview: str | None, rgl=None):
+def _do(result, target: str, out: str, data):
     from ..export import export
-    from ..export.preview import render_preview
 
     e = export(result, target, data=data)
     e.write(out)
-    if preview:
-        mitsuba = e if target == "mitsuba" else export(result, "mitsuba", data=data)
-        render_preview(mitsuba.document, preview, measured=rgl)
     return e
+
+
+def preview(path: str, result, data, source, exports=()) -> None:
+    """``--preview PNG``: write the picture, say so (and what it lacks) on stderr.
+
+    ``source`` is the data file (its name titles the fit's plot; an RGL ``.bsdf``
+    file is also rendered by Mitsuba's ``measured`` plugin); ``exports`` those made.
+    """
+    from ..export import export
+    from ..export.preview import NO_DATA, write_preview
+
+    mitsuba = next((e for e in exports if e.target == "mitsuba"), None)
+    mitsuba = mitsuba or export(result, "mitsuba", data=data)
+
+    rgl = source if source and Path(source).suffix.lower() == ".bsdf" else None
+    write_preview(path, mitsuba, result, data, targets=exports, measured=rgl, title=source)
+    missing = "" if data is not None else f"; {NO_DATA} (give --data FILE to draw it)"
+    sys.stderr.write(f"wrote {path}{missing}\n")
 
 
 def run(args) -> int:
     from ..io import read
 
+    check_preview(args)
     data = read(args.data) if args.data else None
-    # An RGL file is also rendered by Mitsuba's own measured BSDF, beside the export.
-    rgl = args.data if args.data and Path(args.data).suffix == ".bsdf" else None
-    e = _do(_load_result(args.result), args.to, args.out, data, args.preview, rgl)
+    result = _load_result(args.result)
+    e = _do(result, args.to, args.out, data)
+    if args.preview:
+        preview(args.preview, result, data, args.data, [e])
     if args.json:
         return print_json(e.to_dict())
     print(f"wrote {args.out}\n{summary(e)}")
@@ -115,12 +151,16 @@ def run(args) -> int:
 
 
 def export_after_fit(args, result, data) -> None:
-    """Write each ``--export TARGET:FILE`` of a fit; report on stderr (stdout may be JSON)."""
+    """Write each ``--export TARGET:FILE`` of a fit and the ``--preview``; report on
+    stderr (stdout may be JSON)."""
+    made = []
     for spec in getattr(args, "export", None) or ():
         target, sep, out = spec.partition(":")
         if not sep or not out:
             raise ParameterError(
                 f"--export {spec!r} must be TARGET:FILE, e.g. gltf:m.gltf", "export"
             )
-        e = _do(result, target, out, data, None)
-        sys.stderr.write(f"wrote {out}\n{summary(e)}\n")
+        made.append(_do(result, target, out, data))
+        sys.stderr.write(f"wrote {out}\n{summary(made[-1])}\n")
+    if getattr(args, "preview", None):
+        preview(args.preview, result, data, args.file, made)
