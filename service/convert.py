@@ -11,7 +11,7 @@ import logging
 from contextlib import contextmanager
 
 import brdffit
-from brdffit.errors import BrdfFitError, DataError
+from brdffit.errors import BrdfFitError, DataError, ModelError
 from brdffit.notes import collecting
 
 from .schemas import DataIn, FitOptions, PosteriorOptions
@@ -20,6 +20,7 @@ __all__ = [
     "fit_kwargs",
     "located",
     "measurements",
+    "model_names",
     "read_upload",
     "sample_limit",
 ]
@@ -43,6 +44,22 @@ def located(prefix: str, fields=DATA_FIELDS):
         if exc.field in fields:
             exc.field = f"{prefix}.{exc.field}"
         raise
+
+
+def model_names(text: str, most: int, field: str = "models") -> list[str]:
+    """The model names of a form field (``ward, ggx,ward`` -> ``["ward", "ggx"]``):
+    split at commas, trimmed, each once, 1 to ``most`` of them and each a model
+    :func:`brdffit.get_model` knows; else a ModelError naming ``field`` and its value."""
+    names = list(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+    if not 1 <= len(names) <= most:
+        raise ModelError(f"{field}={text!r}: give 1 to {most} model names separated by "
+                         "commas, such as ward,ggx,lambert+blinn", field)  # fmt: skip
+    for name in names:
+        try:
+            brdffit.get_model(name)
+        except BrdfFitError as exc:
+            raise ModelError(f"{field}={text!r}: {exc}", field) from None
+    return names
 
 
 def sample_limit(n: int, limit: int, where: str, hint: str = "") -> None:

@@ -18,7 +18,7 @@ from pydantic import BaseModel, Field
 import brdffit
 from brdffit.errors import BrdfFitError
 
-from ..convert import fit_kwargs, read_upload
+from ..convert import fit_kwargs, model_names, read_upload
 from ..deps import RunnerDep, SettingsDep, StoreDep
 from ..errors import ApiError
 from ..schemas import JobOut
@@ -87,9 +87,7 @@ def create_batch(
     options: OptionsField = "{}",
 ):
     """Queue ``brdffit.fit(read(file), model, **options)`` for every file x model."""
-    names = list(dict.fromkeys(m.strip() for m in models.split(",") if m.strip()))
-    if not names:
-        raise ApiError(422, "models names no model; give comma-separated names", "models")
+    names = model_names(models, MAX_PAIRS)
     if len(files) * len(names) > MAX_PAIRS:
         raise ApiError(422, f"{len(files)} files x {len(names)} models is more than "
                        f"{MAX_PAIRS} pairs; split the batch", "files")  # fmt: skip

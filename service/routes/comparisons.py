@@ -19,7 +19,7 @@ from brdffit.errors import BrdfFitError
 # Service internals, imported in this one place (issue 16).
 from .. import artifacts
 from ..comparisons import ComparisonStore, heldout_rmse, ranks
-from ..convert import fit_kwargs, read_upload
+from ..convert import fit_kwargs, model_names, read_upload
 from ..deps import RunnerDep, SettingsDep, StoreDep
 from ..errors import ApiError
 from ..schemas import ErrorOut
@@ -65,19 +65,6 @@ class ComparisonBrief(BaseModel):
     jobs: list[str]
 
 
-def _models(text: str) -> list[str]:
-    names = list(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
-    if not names or len(names) > MAX_MODELS:
-        raise ApiError(422, f"models={text!r}: give 1 to {MAX_MODELS} model names separated "
-                       "by commas", "models")  # fmt: skip
-    for name in names:
-        try:
-            brdffit.get_model(name)
-        except BrdfFitError as exc:
-            raise ApiError(422, str(exc), "models", type(exc).__name__) from None
-    return names
-
-
 def _read(file: UploadFile, format: str | None, limit: int):
     """The uploaded data; a fault in its content is under ``file.`` (``file.header``...)."""
     try:
@@ -106,7 +93,7 @@ def create_comparison(
 ):
     """Split the file's data (seeded by ``options.seed``), queue one job per model on the
     training part, keep the held-out part; answers 202 with the comparison."""
-    names, fit_options = _models(models), form_options(options)
+    names, fit_options = model_names(models, MAX_MODELS), form_options(options)
     data, notes = _read(file, format, settings.max_samples)
     train, test = data.split(test_fraction, seed=fit_options.seed)
     kwargs = fit_kwargs(fit_options, settings.job_timeout)
