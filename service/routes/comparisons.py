@@ -18,7 +18,7 @@ from brdffit.errors import BrdfFitError
 
 # Service internals, imported in this one place (issue 16).
 from .. import artifacts
-from ..comparisons import ComparisonStore, heldout_rmse, ranks
+from ..comparisons import ComparisonStore, ranks
 from ..convert import fit_kwargs, model_names, read_upload
 from ..deps import RunnerDep, SettingsDep, StoreDep
 from ..errors import ApiError
@@ -100,16 +100,18 @@ def create_comparison(
     for name in names:  # bad options are a 422 now, not a failed job later
         brdffit.check_fit(train, name, **kwargs)
     blob = data_to_bytes(train)
-    jobs = []
-    for name in names:
-        job = store.create(name, stored_options(kwargs, fit_options.export), blob, notes)
+    jobs = [store.create(name, stored_options(kwargs, fit_options.export), blob, notes)
+            for name in names]  # fmt: skip
+    source = file.filename or "upload"
+    # Stored before the jobs are submitted: a worker done with its fit looks its
+    # comparison up to score the fit on the held-out samples.
+    comparison_id = ComparisonStore(store.path).create(
+        source, names, [job["id"] for job in jobs], test, test_fraction, fit_options.seed,
+        train.n,
+    )  # fmt: skip
+    for job in jobs:
         artifacts.want(store.path, job["id"])
         runner.submit(job["id"], job["attempt"])
-        jobs.append(job["id"])
-    comparisons = ComparisonStore(store.path)
-    source = file.filename or "upload"
-    comparison_id = comparisons.create(source, names, jobs, test, test_fraction,
-                                       fit_options.seed, train.n)  # fmt: skip
     response.headers["Location"] = f"/comparisons/{comparison_id}"
     return _comparison(store, comparison_id)
 
@@ -127,7 +129,8 @@ def get_comparison(comparison_id: str, store: StoreDep):
 
 
 def _comparison(store, comparison_id: str) -> dict:
-    row = ComparisonStore(store.path).get(comparison_id)
+    comparisons = ComparisonStore(store.path)
+    row = comparisons.get(comparison_id)
     if row is None:
         raise ApiError(404, f"there is no comparison {comparison_id!r}", "id")
     entries = []
@@ -137,7 +140,11 @@ def _comparison(store, comparison_id: str) -> dict:
         result = (job or {}).get("result")
         if result:
             entry["bic"], entry["aic"] = result["metrics"].get("bic"), result["metrics"].get("aic")
-            entry["heldout_rmse"] = heldout_rmse(name, result["params"], row["test"])
+            attempt, rmse = row["scores"].get(job_id, (None, None))
+            if attempt != job["attempt"]:  # not scored by its worker (an older comparison)
+                rmse = comparisons.score(job_id, job["attempt"], name, result["params"],
+                                         comparison_id)  # fmt: skip
+            entry["heldout_rmse"] = rmse
         entries.append(entry)
     for key, rank in (("bic", "rank_bic"), ("heldout_rmse", "rank_heldout")):
         for entry, r in zip(entries, ranks([e.get(key) for e in entries])):
