@@ -16,7 +16,6 @@ from fastapi import APIRouter, File, Form, UploadFile
 from pydantic import BaseModel, Field
 
 import brdffit
-from brdffit.errors import BrdfFitError
 
 from ..convert import fit_kwargs, model_names, read_upload
 from ..deps import RunnerDep, SettingsDep, StoreDep
@@ -62,11 +61,8 @@ ModelsField = Annotated[str, Form(max_length=5000, description="Comma-separated 
 def _read_all(limit: int, files, format, subsample, channels) -> list:
     out = []
     for i, upload in enumerate(files):
-        try:
-            data, notes = read_upload(upload.file.read(), upload.filename, format, subsample,
-                                      channels, limit)  # fmt: skip
-        except BrdfFitError as exc:
-            raise type(exc)(str(exc), f"files[{i}]") from None
+        data, notes = read_upload(upload.file.read(), upload.filename, format, subsample,
+                                  channels, limit, field=f"files[{i}]")  # fmt: skip
         out.append((upload.filename or f"files[{i}]", data, notes))
     return out
 

@@ -10,11 +10,9 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Form, Query, Response, UploadFile
-from pydantic import BaseModel, Field
+from fastapi import APIRouter, Form, Query, Response
 
 import brdffit
-from brdffit.errors import BrdfFitError
 
 # Service internals, imported in this one place (issue 16).
 from .. import artifacts
@@ -22,7 +20,8 @@ from ..comparisons import ComparisonStore, ranks
 from ..convert import fit_kwargs, model_names, read_upload
 from ..deps import RunnerDep, SettingsDep, StoreDep
 from ..errors import ApiError
-from ..schemas import ErrorOut
+from ..schemas import ComparisonBrief, ComparisonOut, ErrorOut
+from ..schemas.comparisons import DELETED
 from ..store import data_to_bytes
 from .common import ERRORS as FORM_ERRORS
 from .common import FileField, FormatField, OptionsField, form_options, stored_options
@@ -32,46 +31,6 @@ __all__ = ["router"]
 router = APIRouter(tags=["comparisons"])
 MAX_MODELS = 12
 ERRORS = {404: {"model": ErrorOut, "description": "No such comparison."}, **FORM_ERRORS}
-
-
-class EntryOut(BaseModel):
-    model: str
-    job: str = Field(description="The job fitting this model: GET /jobs/{job}.")
-    status: str = Field(description="The job's status, or `deleted`.")
-    bic: float | None = Field(None, description="BIC of the fit on the training part.")
-    aic: float | None = None
-    heldout_rmse: float | None = Field(None, description="RMSE on the held-out samples.")
-    rank_bic: int | None = Field(None, description="1 = lowest BIC among the jobs done.")
-    rank_heldout: int | None = Field(None, description="1 = lowest held-out RMSE.")
-
-
-class ComparisonOut(BaseModel):
-    id: str
-    created: str
-    source: str = Field(description="The uploaded file's name.")
-    test_fraction: float
-    seed: int
-    n_train: int
-    n_test: int
-    done: bool = Field(description="Every job has finished (done, failed or interrupted).")
-    entries: list[EntryOut] = Field(description="In the order the models were given.")
-
-
-class ComparisonBrief(BaseModel):
-    id: str
-    created: str
-    source: str
-    models: list[str]
-    jobs: list[str]
-
-
-def _read(file: UploadFile, format: str | None, limit: int):
-    """The uploaded data; a fault in its content is under ``file.`` (``file.header``...)."""
-    try:
-        return read_upload(file.file.read(), file.filename, format, None, None, limit)
-    except BrdfFitError as exc:
-        field = exc.field if exc.field in ("file", "format") else f"file.{exc.field}"
-        raise ApiError(422, str(exc), field, type(exc).__name__) from None
 
 
 ModelsField = Annotated[str, Form(max_length=2000, description="Model names: ward,ggx,blinn")]
@@ -94,7 +53,8 @@ def create_comparison(
     """Split the file's data (seeded by ``options.seed``), queue one job per model on the
     training part, keep the held-out part; answers 202 with the comparison."""
     names, fit_options = model_names(models, MAX_MODELS), form_options(options)
-    data, notes = _read(file, format, settings.max_samples)
+    data, notes = read_upload(file.file.read(), file.filename, format, None, None,
+                              settings.max_samples)  # fmt: skip
     train, test = data.split(test_fraction, seed=fit_options.seed)
     kwargs = fit_kwargs(fit_options, settings.job_timeout)
     for name in names:  # bad options are a 422 now, not a failed job later
@@ -136,7 +96,8 @@ def _comparison(store, comparison_id: str) -> dict:
     entries = []
     for name, job_id in zip(row["models"], row["jobs"]):
         job = store.get(job_id)
-        entry = {"model": name, "job": job_id, "status": job["status"] if job else "deleted"}
+        entry = {"model": name, "job": job_id, "status": job["status"] if job else DELETED,
+                 "bic": None, "aic": None, "heldout_rmse": None}  # fmt: skip
         result = (job or {}).get("result")
         if result:
             entry["bic"], entry["aic"] = result["metrics"].get("bic"), result["metrics"].get("aic")
