@@ -28,6 +28,8 @@ log = logging.getLogger("brdffit.service")
 KINDS = {404: "NotFound", 405: "MethodNotAllowed", 409: "Conflict", 413: "TooLarge",
          503: "Unavailable"}  # fmt: skip
 UNREADABLE = "There was an error parsing the body"
+#: Starts of the details of Starlette's 400s for a multipart form it cannot parse.
+FORM_FAULTS = ("Invalid multipart", "Part exceeded", "Too many", "Missing boundary")
 #: About the longest file name a multipart part header takes (python-multipart's
 #: limit on a header line, 4,224 bytes, less the rest of Content-Disposition).
 MAX_NAME = 4000
@@ -61,7 +63,11 @@ def _validation_item(err: dict) -> dict:
     loc = [str(part) for part in err.get("loc", ())]
     if loc and loc[0] in ("body", "query", "path", "form"):
         loc = loc[1:] or loc
-    return {"field": ".".join(loc) or None, "message": str(err.get("msg", ""))}
+    message = str(err.get("msg", ""))
+    if "Expected UploadFile" in message:  # a form field sent as text, not as a file
+        message = (f"must be a file, sent as a multipart part with a file name, not as text "
+                   f"(curl -F {loc[0] if loc else 'file'}=@data.csv)")  # fmt: skip
+    return {"field": ".".join(loc) or None, "message": message}
 
 
 async def library_error(request: Request, exc: BrdfFitError) -> JSONResponse:
@@ -104,7 +110,7 @@ def _form_fault(exc: HTTPException) -> tuple[str, str] | None:
                         "send the file under a shorter name", "file")  # fmt: skip
             return f"the upload form cannot be read: {reason}", "body"
         cause, seen = cause.__cause__ or cause.__context__, seen + 1
-    if str(exc.detail).startswith(("Invalid multipart", "Part exceeded", "Too many")):
+    if str(exc.detail).startswith(FORM_FAULTS):
         return f"the upload form cannot be read: {exc.detail}", "body"
     return None
 

@@ -34,7 +34,9 @@ ERRORS = {404: {"model": ErrorOut, "description": "No such comparison."}, **FORM
 
 
 ModelsField = Annotated[str, Form(max_length=2000, description="Model names: ward,ggx,blinn")]
-FractionField = Annotated[float, Form(gt=0, le=0.9, description="Share of samples held out.")]
+FractionField = Annotated[
+    float, Form(gt=0, le=0.9, allow_inf_nan=False, description="Share of samples held out.")
+]
 
 
 @router.post("/comparisons/file", status_code=202, response_model=ComparisonOut,
