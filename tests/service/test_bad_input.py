@@ -70,3 +70,27 @@ def test_data_the_fit_refuses_are_under_data(client, route):
     data = {**EXAMPLE_DATA, "values": [[1e200] * 3] * len(EXAMPLE_DATA["theta_i"])}
     answer = client.post(route, json={"model": "blinn", "data": data})
     assert_error(answer, 422, "data.values", "the largest value is 1e+200")
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ('{"model": "ward", "data": {"theta_i": ' + "[" * 5000 + "]" * 5000 + "}}",
+         "nested deeper than this server reads"),
+        ('{"model": "ward", "seed": 1' + "0" * 5000 + "}", "has more than 4300 digits"),
+    ],
+    ids=["nested", "long-integer"],
+)  # fmt: skip
+def test_json_the_parser_gives_up_on_says_why(client, text, words):
+    """Before, both answered "JSON must be UTF-8 text", which they are."""
+    body = assert_error(client.post("/fit", content=text, headers=JSON), 400, "body", words)
+    assert "UTF-8" not in body["message"]
+
+
+def test_a_field_path_names_no_pydantic_type(client):
+    """Before: ``data.values.list[float].0``, and once per member of the union."""
+    data = {**EXAMPLE_DATA, "values": ["a"] * len(EXAMPLE_DATA["theta_i"])}
+    body = assert_error(client.post("/fit", json={"model": "ward", "data": data}), 422)
+    fields = [item["field"] for item in body["errors"]]
+    assert body["field"] == "data.values.0" and len(fields) == len(set(fields)), fields
+    assert not any("[" in f or "float" in f for f in fields), fields
