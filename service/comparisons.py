@@ -5,14 +5,17 @@ training part and ranks the models by BIC and by the error on the held-out
 part. A comparison here does the same with jobs, so that each fit runs in a
 worker with its own progress: the training part goes into one ordinary job
 per model (``GET /jobs/{id}`` follows each), and the held-out part is kept in
-the table ``comparisons`` of the job store. Once a job is done its held-out
-RMSE is the model with the job's parameters evaluated on the held-out samples;
-the ranks are those of :func:`brdffit.compare` (1 = best), among the jobs done.
+the table ``comparisons`` of the job store. When a job's fit is done its worker
+evaluates the model with the job's parameters on the held-out samples, once
+(:func:`score`), and stores that RMSE in the table ``comparison_jobs`` beside the
+attempt it scored; ``GET /comparisons/{id}`` serves it. The ranks are those of
+:func:`brdffit.compare` (1 = best), among the jobs done.
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import math
 import sqlite3
 import time
@@ -25,7 +28,9 @@ import brdffit
 
 from .store import data_from_bytes, data_to_bytes, iso
 
-__all__ = ["ComparisonStore", "heldout_rmse", "ranks"]
+__all__ = ["ComparisonStore", "heldout_rmse", "ranks", "score"]
+
+log = logging.getLogger("brdffit.service")
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS comparisons (
@@ -39,6 +44,12 @@ CREATE TABLE IF NOT EXISTS comparisons (
     seed INTEGER NOT NULL,
     n_train INTEGER NOT NULL,
     n_test INTEGER NOT NULL
+);
+CREATE TABLE IF NOT EXISTS comparison_jobs (
+    job_id TEXT PRIMARY KEY,
+    comparison_id TEXT NOT NULL,
+    attempt INTEGER,
+    heldout_rmse REAL
 );
 """
 
@@ -80,6 +91,8 @@ class ComparisonStore:
 
     def create(self, source: str, models: list, jobs: list, test, test_fraction: float,
                seed: int, n_train: int) -> str:  # fmt: skip
+        """Store a comparison of ``jobs`` (stored, not yet submitted: their workers look
+        their comparison up when done)."""
         comparison_id = uuid.uuid4().hex
         with self._connect() as db:
             db.execute(
@@ -87,15 +100,52 @@ class ComparisonStore:
                 (comparison_id, time.time(), source, json.dumps(models), json.dumps(jobs),
                  sqlite3.Binary(data_to_bytes(test)), test_fraction, seed, n_train, test.n),
             )  # fmt: skip
+            db.executemany(
+                "INSERT OR REPLACE INTO comparison_jobs VALUES (?, ?, NULL, NULL)",
+                [(job_id, comparison_id) for job_id in jobs],
+            )
         return comparison_id
 
     def get(self, comparison_id: str):
-        """The row as a dict with its held-out data loaded (``test``), or None."""
+        """The row as a dict (without its held-out data), with ``scores``: job id ->
+        (attempt scored, held-out RMSE) of its jobs scored so far; or None."""
         with self._connect() as db:
             row = db.execute("SELECT * FROM comparisons WHERE id = ?", (comparison_id,)).fetchone()
+            scored = db.execute(
+                "SELECT job_id, attempt, heldout_rmse FROM comparison_jobs "
+                "WHERE comparison_id = ? AND attempt IS NOT NULL",
+                (comparison_id,),
+            ).fetchall()
         if row is None:
             return None
-        return {**_decoded(row), "test": data_from_bytes(row["test"])}
+        scores = {r["job_id"]: (r["attempt"], r["heldout_rmse"]) for r in scored}
+        return {**_decoded(row), "scores": scores}
+
+    def score(self, job_id: str, attempt: int, model: str, params: dict,
+              comparison_id: str | None = None) -> float | None:  # fmt: skip
+        """Evaluate attempt ``attempt`` of ``job_id`` (its ``params``) on the held-out
+        samples of its comparison (``comparison_id``, or the one the job was stored
+        in) and store the RMSE; None when the job is in no comparison, or the RMSE
+        is not finite."""
+        with self._connect() as db:
+            if comparison_id is None:
+                found = db.execute(
+                    "SELECT comparison_id FROM comparison_jobs WHERE job_id = ?", (job_id,)
+                ).fetchone()
+                if found is None:
+                    return None
+                comparison_id = found["comparison_id"]
+            row = db.execute(
+                "SELECT test FROM comparisons WHERE id = ?", (comparison_id,)
+            ).fetchone()
+            if row is None:
+                return None
+            rmse = heldout_rmse(model, params, data_from_bytes(row["test"]))
+            db.execute(
+                "INSERT OR REPLACE INTO comparison_jobs VALUES (?, ?, ?, ?)",
+                (job_id, comparison_id, attempt, rmse),
+            )
+        return rmse
 
     def list(self, limit: int = 20) -> list[dict]:
         with self._connect() as db:
@@ -111,3 +161,12 @@ def _decoded(row: sqlite3.Row) -> dict:
     """A row as a dict: its JSON lists decoded, its time in ISO 8601."""
     return {**dict(row), "created": iso(row["created"]), "models": json.loads(row["models"]),
             "jobs": json.loads(row["jobs"])}  # fmt: skip
+
+
+def score(store_path, job_id: str, attempt: int, model: str, result: dict) -> None:
+    """In the worker, when the fit of ``job_id`` is done (its JSON ``result``): store
+    its held-out RMSE if the job is part of a comparison. Never fails the fit."""
+    try:
+        ComparisonStore(store_path).score(job_id, attempt, model, result["params"])
+    except Exception:  # GET /comparisons/{id} scores it instead (logged: a bug)
+        log.exception("could not score job %s on its held-out samples", job_id)

@@ -11,7 +11,7 @@ import logging
 from contextlib import contextmanager
 
 import brdffit
-from brdffit.errors import BrdfFitError, DataError
+from brdffit.errors import BrdfFitError, DataError, ModelError
 from brdffit.notes import collecting
 
 from .schemas import DataIn, FitOptions, PosteriorOptions
@@ -20,6 +20,7 @@ __all__ = [
     "fit_kwargs",
     "located",
     "measurements",
+    "model_names",
     "read_upload",
     "sample_limit",
 ]
@@ -28,8 +29,10 @@ log = logging.getLogger("brdffit.service")
 
 #: Library fields that name a part of the data, to be found under ``data.`` in a body.
 DATA_FIELDS = {"theta_i", "phi_i", "theta_o", "phi_o", "values", "channels", "sigma", "index"}
-#: Library fields that mean "the file itself": an upload's is the form field ``file``.
+#: Library fields that mean "the file itself": an upload's is its form field (``file``).
 FILE_FIELDS = {None, "path", "source"}
+#: Library fields of brdffit.read that are form fields of an upload as well.
+FORM_FIELDS = {"format", "subsample"}
 UNNAMED_UPLOAD = "the uploaded file"
 
 
@@ -43,6 +46,22 @@ def located(prefix: str, fields=DATA_FIELDS):
         if exc.field in fields:
             exc.field = f"{prefix}.{exc.field}"
         raise
+
+
+def model_names(text: str, most: int, field: str = "models") -> list[str]:
+    """The model names of a form field (``ward, ggx,ward`` -> ``["ward", "ggx"]``):
+    split at commas, trimmed, each once, 1 to ``most`` of them and each a model
+    :func:`brdffit.get_model` knows; else a ModelError naming ``field`` and its value."""
+    names = list(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
+    if not 1 <= len(names) <= most:
+        raise ModelError(f"{field}={text!r}: give 1 to {most} model names separated by "
+                         "commas, such as ward,ggx,lambert+blinn", field)  # fmt: skip
+    for name in names:
+        try:
+            brdffit.get_model(name)
+        except BrdfFitError as exc:
+            raise ModelError(f"{field}={text!r}: {exc}", field) from None
+    return names
 
 
 def sample_limit(n: int, limit: int, where: str, hint: str = "") -> None:
@@ -89,13 +108,17 @@ def fit_kwargs(options: FitOptions, seconds: float) -> dict:
 
 
 def read_upload(content: bytes, filename: str | None, format: str | None, subsample=None,
-                channels: str | None = None, limit: int | None = None):  # fmt: skip
+                channels: str | None = None, limit: int | None = None,
+                field: str = "file"):  # fmt: skip
     """``brdffit.read`` of an uploaded file's bytes, and the notes the reading made.
 
     The bytes are read in memory, named by the upload's file name: the library
     infers the format from its extension (or from the first bytes), and its
-    messages and notes name the client's file. A fault of the file's content
-    that the reader puts under no narrower field is the form field ``file``'s.
+    messages and notes name the client's file. An error names the form field at
+    fault, as a dotted path (as ``data.theta_i`` in a JSON body): a fault of the
+    file's content is under the file's form field ``field`` (``file.header``),
+    one that the reader puts under no narrower field is ``field`` itself, and
+    ``format`` and ``subsample`` are the form fields of those names.
     """
     upload = io.BytesIO(content)
     upload.name = filename or UNNAMED_UPLOAD
@@ -107,7 +130,9 @@ def read_upload(content: bytes, filename: str | None, format: str | None, subsam
             data = brdffit.read(upload, format=format, **options)
     except BrdfFitError as exc:
         if exc.field in FILE_FIELDS:
-            exc.field = "file"
+            exc.field = field
+        elif exc.field not in FORM_FIELDS:
+            exc.field = f"{field}.{exc.field}"
         log.info("upload %r (%d bytes) refused: %s", upload.name, len(content), exc)
         raise
     # The server's log names the client's file, as the answers do (never a temporary path).
@@ -117,5 +142,5 @@ def read_upload(content: bytes, filename: str | None, format: str | None, subsam
     if channels:
         data = data.select_channels([c.strip() for c in channels.split(",") if c.strip()])
     if limit is not None:
-        sample_limit(data.n, limit, "file")
+        sample_limit(data.n, limit, field)
     return data, list(notes)

@@ -12,6 +12,8 @@ Every error answers with :class:`~brdffit_service.schemas.ErrorOut`:
 from __future__ import annotations
 
 import logging
+import re
+import sys
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
@@ -28,6 +30,11 @@ log = logging.getLogger("brdffit.service")
 KINDS = {404: "NotFound", 405: "MethodNotAllowed", 409: "Conflict", 413: "TooLarge",
          503: "Unavailable"}  # fmt: skip
 UNREADABLE = "There was an error parsing the body"
+#: The member of a union type that pydantic puts in an error's location
+#: (``data.values.list[float].0``): the type, not a field of the request.
+UNION_TAG = re.compile(r"(float|int|str|bool|(list|dict|literal|function-\w+)\[.*\])")
+#: Starts of the details of Starlette's 400s for a multipart form it cannot parse.
+FORM_FAULTS = ("Invalid multipart", "Part exceeded", "Too many", "Missing boundary")
 #: About the longest file name a multipart part header takes (python-multipart's
 #: limit on a header line, 4,224 bytes, less the rest of Content-Disposition).
 MAX_NAME = 4000
@@ -58,10 +65,14 @@ def _validation_item(err: dict) -> dict:
         reason = (err.get("ctx") or {}).get("error", "malformed")
         message = f"the body is not valid JSON: {reason} at character {where}"
         return {"field": "body", "message": message}
-    loc = [str(part) for part in err.get("loc", ())]
+    loc = [str(part) for part in err.get("loc", ()) if not UNION_TAG.fullmatch(str(part))]
     if loc and loc[0] in ("body", "query", "path", "form"):
         loc = loc[1:] or loc
-    return {"field": ".".join(loc) or None, "message": str(err.get("msg", ""))}
+    message = str(err.get("msg", ""))
+    if "Expected UploadFile" in message:  # a form field sent as text, not as a file
+        message = (f"must be a file, sent as a multipart part with a file name, not as text "
+                   f"(curl -F {loc[0] if loc else 'file'}=@data.csv)")  # fmt: skip
+    return {"field": ".".join(loc) or None, "message": message}
 
 
 async def library_error(request: Request, exc: BrdfFitError) -> JSONResponse:
@@ -71,7 +82,10 @@ async def library_error(request: Request, exc: BrdfFitError) -> JSONResponse:
 
 async def request_invalid(request: Request, exc: RequestValidationError | ValidationError):
     """A body, query or form that does not match its schema: 422 naming every field."""
-    items = [_validation_item(err) for err in exc.errors()]
+    by_field: dict = {}  # per field the first problem (a union's members each add one)
+    for item in map(_validation_item, exc.errors()):
+        by_field.setdefault(item["field"], item)
+    items = list(by_field.values())
     first = items[0] if items else {"field": None, "message": "the request is not valid"}
     message = f"{first['field']}: {first['message']}" if first["field"] else first["message"]
     return error_response(422, error_body(message, first["field"], "ValidationError", items))
@@ -80,8 +94,7 @@ async def request_invalid(request: Request, exc: RequestValidationError | Valida
 async def http_error(request: Request, exc: HTTPException) -> JSONResponse:
     """An :class:`ApiError` of a route, or Starlette's own (404, 405, unreadable body)."""
     if exc.status_code == 400 and exc.detail == UNREADABLE:
-        message = "the body cannot be read: JSON must be UTF-8 text, a form must be well-formed"
-        return error_response(400, error_body(message, "body", "HTTPError"))
+        return error_response(400, error_body(_unreadable(exc), "body", "HTTPError"))
     form_fault = _form_fault(exc)
     if exc.status_code == 400 and form_fault is not None:
         return error_response(400, error_body(*form_fault, "HTTPError"))
@@ -89,6 +102,20 @@ async def http_error(request: Request, exc: HTTPException) -> JSONResponse:
     kind = getattr(exc, "kind", None) or KINDS.get(exc.status_code, "HTTPError")
     body = error_body(str(exc.detail), field, kind)
     return error_response(exc.status_code, body, getattr(exc, "headers", None))
+
+
+def _unreadable(exc: HTTPException) -> str:
+    """Why FastAPI could not parse a body (its 400 says only "There was an error
+    parsing the body"; the parser's own error is the exception's cause)."""
+    cause = exc.__cause__ or exc.__context__
+    if isinstance(cause, RecursionError):
+        return ("the body cannot be read: its JSON is nested deeper than this server "
+                "reads (about 1,000 levels); send flat arrays of numbers")  # fmt: skip
+    if isinstance(cause, ValueError) and "integer string conversion" in str(cause):
+        digits = sys.get_int_max_str_digits()
+        return (f"the body cannot be read: a whole number in its JSON has more than {digits} "
+                "digits; no field takes one that large")  # fmt: skip
+    return "the body cannot be read: JSON must be UTF-8 text, a form must be well-formed"
 
 
 def _form_fault(exc: HTTPException) -> tuple[str, str] | None:
@@ -104,7 +131,7 @@ def _form_fault(exc: HTTPException) -> tuple[str, str] | None:
                         "send the file under a shorter name", "file")  # fmt: skip
             return f"the upload form cannot be read: {reason}", "body"
         cause, seen = cause.__cause__ or cause.__context__, seen + 1
-    if str(exc.detail).startswith(("Invalid multipart", "Part exceeded", "Too many")):
+    if str(exc.detail).startswith(FORM_FAULTS):
         return f"the upload form cannot be read: {exc.detail}", "body"
     return None
 

@@ -31,7 +31,7 @@ import brdffit
 from brdffit.errors import BrdfFitError
 from brdffit.jsonable import jsonable
 
-from . import artifacts
+from . import artifacts, comparisons
 from .errors import ApiError
 from .exports import with_exports
 from .pool import IsolatedPool, WorkerDied
@@ -117,6 +117,7 @@ def run_job(store_path: str, job_id: str, attempt: int, parent_pid: int | None =
         artifacts.render(store_path, job_id, result)  # a corner plot, if asked (issue 16)
         answer = with_exports(jsonable(result.to_dict()), data, targets, started,
                               options.get("timeout"), reporter.exporting)  # fmt: skip
+        comparisons.score(store_path, job_id, attempt, model, answer)  # if in one (issue 16)
     except Cancelled:
         return "gone"
     except BrdfFitError as exc:

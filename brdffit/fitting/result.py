@@ -105,11 +105,6 @@ class FitResult:
             weights.setflags(write=False)
             object.__setattr__(self, "weights", weights)
 
-    @property
-    def is_valid(self) -> bool:
-        """Converged, with a finite loss."""
-        return self.converged and math.isfinite(self.loss)
-
     def to_dict(self) -> dict:
         out = {
             "model": self.model,

@@ -6,10 +6,9 @@ what is needed; the default noise model is the fit's own.
 from __future__ import annotations
 
 import difflib
-import math
 
 from ..errors import FitError
-from ..fitting.options import _whole
+from ..fitting.options import _positive_number, _whole
 from ..fitting.result import FitResult
 from .target import NOISE_MODELS
 
@@ -42,15 +41,12 @@ def _check_options(
     if steps != "auto":
         _whole(steps, "steps", 1, alternative="or 'auto'")
     _whole(max_steps, "max_steps", 1)
-    ok = max_seconds is None or (
-        isinstance(max_seconds, (int, float))
-        and not isinstance(max_seconds, bool)
-        and max_seconds > 0
-        and math.isfinite(max_seconds)
-    )
-    if not ok:
+    # The check of fit's timeout: inf is allowed and means no limit, as None does (fit
+    # hands the posterior what its own timeout leaves: inf after timeout=inf).
+    if max_seconds is not None and not _positive_number(max_seconds):
         raise FitError(
-            f"max_seconds={max_seconds!r} must be a positive number of seconds or None",
+            f"max_seconds={max_seconds!r} must be a positive number of seconds "
+            "(inf or None: no limit)",
             "max_seconds",
         )
     if seed is not None:

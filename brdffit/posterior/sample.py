@@ -101,6 +101,7 @@ def sample_posterior(
         Cap of ``steps="auto"``.
     max_seconds : float or None
         Wall-clock budget of the whole call; the run stops there, not converged.
+        None or ``inf``: no limit (as ``timeout`` of :func:`brdffit.fit`).
     seed : int, optional
         Seeds the walkers, the moves and the coefficient draws (default: the fit's
         seed); the same seed gives the same samples.

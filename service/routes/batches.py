@@ -16,9 +16,8 @@ from fastapi import APIRouter, File, Form, UploadFile
 from pydantic import BaseModel, Field
 
 import brdffit
-from brdffit.errors import BrdfFitError
 
-from ..convert import fit_kwargs, read_upload
+from ..convert import fit_kwargs, model_names, read_upload
 from ..deps import RunnerDep, SettingsDep, StoreDep
 from ..errors import ApiError
 from ..schemas import JobOut
@@ -62,11 +61,8 @@ ModelsField = Annotated[str, Form(max_length=5000, description="Comma-separated 
 def _read_all(limit: int, files, format, subsample, channels) -> list:
     out = []
     for i, upload in enumerate(files):
-        try:
-            data, notes = read_upload(upload.file.read(), upload.filename, format, subsample,
-                                      channels, limit)  # fmt: skip
-        except BrdfFitError as exc:
-            raise type(exc)(str(exc), f"files[{i}]") from None
+        data, notes = read_upload(upload.file.read(), upload.filename, format, subsample,
+                                  channels, limit, field=f"files[{i}]")  # fmt: skip
         out.append((upload.filename or f"files[{i}]", data, notes))
     return out
 
@@ -87,9 +83,7 @@ def create_batch(
     options: OptionsField = "{}",
 ):
     """Queue ``brdffit.fit(read(file), model, **options)`` for every file x model."""
-    names = list(dict.fromkeys(m.strip() for m in models.split(",") if m.strip()))
-    if not names:
-        raise ApiError(422, "models names no model; give comma-separated names", "models")
+    names = model_names(models, MAX_PAIRS)
     if len(files) * len(names) > MAX_PAIRS:
         raise ApiError(422, f"{len(files)} files x {len(names)} models is more than "
                        f"{MAX_PAIRS} pairs; split the batch", "files")  # fmt: skip

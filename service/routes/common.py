@@ -49,8 +49,18 @@ def form_options(options: str) -> FitOptions:
     try:
         return FitOptions.model_validate_json(options or "{}")
     except ValidationError as exc:
-        errors = [{**e, "loc": ("options", *e["loc"])} for e in exc.errors()]
+        errors = [_not_json(e, options) if e["type"] == "json_invalid" else
+                  {**e, "loc": ("options", *e["loc"])} for e in exc.errors()]  # fmt: skip
         raise RequestValidationError(errors) from None
+
+
+def _not_json(error: dict, options: str) -> dict:
+    """The error of an ``options`` field that is not JSON (not of the request's body)."""
+    value = options if len(options) <= 60 else options[:57] + "..."
+    reason = (error.get("ctx") or {}).get("error", "malformed")
+    message = (f"{value!r} is not valid JSON ({reason}); give a JSON object of fit options, "
+               'such as {"seed": 3}')  # fmt: skip
+    return {"type": "options_not_json", "loc": ("options",), "msg": message}
 
 
 def stored_options(kwargs: dict, export) -> dict:

@@ -10,19 +10,18 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Form, Query, Response, UploadFile
-from pydantic import BaseModel, Field
+from fastapi import APIRouter, Form, Query, Response
 
 import brdffit
-from brdffit.errors import BrdfFitError
 
 # Service internals, imported in this one place (issue 16).
 from .. import artifacts
-from ..comparisons import ComparisonStore, heldout_rmse, ranks
-from ..convert import fit_kwargs, read_upload
+from ..comparisons import ComparisonStore, ranks
+from ..convert import fit_kwargs, model_names, read_upload
 from ..deps import RunnerDep, SettingsDep, StoreDep
 from ..errors import ApiError
-from ..schemas import ErrorOut
+from ..schemas import ComparisonBrief, ComparisonOut, ErrorOut
+from ..schemas.comparisons import DELETED
 from ..store import data_to_bytes
 from .common import ERRORS as FORM_ERRORS
 from .common import FileField, FormatField, OptionsField, form_options, stored_options
@@ -34,61 +33,10 @@ MAX_MODELS = 12
 ERRORS = {404: {"model": ErrorOut, "description": "No such comparison."}, **FORM_ERRORS}
 
 
-class EntryOut(BaseModel):
-    model: str
-    job: str = Field(description="The job fitting this model: GET /jobs/{job}.")
-    status: str = Field(description="The job's status, or `deleted`.")
-    bic: float | None = Field(None, description="BIC of the fit on the training part.")
-    aic: float | None = None
-    heldout_rmse: float | None = Field(None, description="RMSE on the held-out samples.")
-    rank_bic: int | None = Field(None, description="1 = lowest BIC among the jobs done.")
-    rank_heldout: int | None = Field(None, description="1 = lowest held-out RMSE.")
-
-
-class ComparisonOut(BaseModel):
-    id: str
-    created: str
-    source: str = Field(description="The uploaded file's name.")
-    test_fraction: float
-    seed: int
-    n_train: int
-    n_test: int
-    done: bool = Field(description="Every job has finished (done, failed or interrupted).")
-    entries: list[EntryOut] = Field(description="In the order the models were given.")
-
-
-class ComparisonBrief(BaseModel):
-    id: str
-    created: str
-    source: str
-    models: list[str]
-    jobs: list[str]
-
-
-def _models(text: str) -> list[str]:
-    names = list(dict.fromkeys(n.strip() for n in text.split(",") if n.strip()))
-    if not names or len(names) > MAX_MODELS:
-        raise ApiError(422, f"models={text!r}: give 1 to {MAX_MODELS} model names separated "
-                       "by commas", "models")  # fmt: skip
-    for name in names:
-        try:
-            brdffit.get_model(name)
-        except BrdfFitError as exc:
-            raise ApiError(422, str(exc), "models", type(exc).__name__) from None
-    return names
-
-
-def _read(file: UploadFile, format: str | None, limit: int):
-    """The uploaded data; a fault in its content is under ``file.`` (``file.header``...)."""
-    try:
-        return read_upload(file.file.read(), file.filename, format, None, None, limit)
-    except BrdfFitError as exc:
-        field = exc.field if exc.field in ("file", "format") else f"file.{exc.field}"
-        raise ApiError(422, str(exc), field, type(exc).__name__) from None
-
-
 ModelsField = Annotated[str, Form(max_length=2000, description="Model names: ward,ggx,blinn")]
-FractionField = Annotated[float, Form(gt=0, le=0.9, description="Share of samples held out.")]
+FractionField = Annotated[
+    float, Form(gt=0, le=0.9, allow_inf_nan=False, description="Share of samples held out.")
+]
 
 
 @router.post("/comparisons/file", status_code=202, response_model=ComparisonOut,
@@ -106,23 +54,26 @@ def create_comparison(
 ):
     """Split the file's data (seeded by ``options.seed``), queue one job per model on the
     training part, keep the held-out part; answers 202 with the comparison."""
-    names, fit_options = _models(models), form_options(options)
-    data, notes = _read(file, format, settings.max_samples)
+    names, fit_options = model_names(models, MAX_MODELS), form_options(options)
+    data, notes = read_upload(file.file.read(), file.filename, format, None, None,
+                              settings.max_samples)  # fmt: skip
     train, test = data.split(test_fraction, seed=fit_options.seed)
     kwargs = fit_kwargs(fit_options, settings.job_timeout)
     for name in names:  # bad options are a 422 now, not a failed job later
         brdffit.check_fit(train, name, **kwargs)
     blob = data_to_bytes(train)
-    jobs = []
-    for name in names:
-        job = store.create(name, stored_options(kwargs, fit_options.export), blob, notes)
+    jobs = [store.create(name, stored_options(kwargs, fit_options.export), blob, notes)
+            for name in names]  # fmt: skip
+    source = file.filename or "upload"
+    # Stored before the jobs are submitted: a worker done with its fit looks its
+    # comparison up to score the fit on the held-out samples.
+    comparison_id = ComparisonStore(store.path).create(
+        source, names, [job["id"] for job in jobs], test, test_fraction, fit_options.seed,
+        train.n,
+    )  # fmt: skip
+    for job in jobs:
         artifacts.want(store.path, job["id"])
         runner.submit(job["id"], job["attempt"])
-        jobs.append(job["id"])
-    comparisons = ComparisonStore(store.path)
-    source = file.filename or "upload"
-    comparison_id = comparisons.create(source, names, jobs, test, test_fraction,
-                                       fit_options.seed, train.n)  # fmt: skip
     response.headers["Location"] = f"/comparisons/{comparison_id}"
     return _comparison(store, comparison_id)
 
@@ -140,17 +91,23 @@ def get_comparison(comparison_id: str, store: StoreDep):
 
 
 def _comparison(store, comparison_id: str) -> dict:
-    row = ComparisonStore(store.path).get(comparison_id)
+    comparisons = ComparisonStore(store.path)
+    row = comparisons.get(comparison_id)
     if row is None:
         raise ApiError(404, f"there is no comparison {comparison_id!r}", "id")
     entries = []
     for name, job_id in zip(row["models"], row["jobs"]):
         job = store.get(job_id)
-        entry = {"model": name, "job": job_id, "status": job["status"] if job else "deleted"}
+        entry = {"model": name, "job": job_id, "status": job["status"] if job else DELETED,
+                 "bic": None, "aic": None, "heldout_rmse": None}  # fmt: skip
         result = (job or {}).get("result")
         if result:
             entry["bic"], entry["aic"] = result["metrics"].get("bic"), result["metrics"].get("aic")
-            entry["heldout_rmse"] = heldout_rmse(name, result["params"], row["test"])
+            attempt, rmse = row["scores"].get(job_id, (None, None))
+            if attempt != job["attempt"]:  # not scored by its worker (an older comparison)
+                rmse = comparisons.score(job_id, job["attempt"], name, result["params"],
+                                         comparison_id)  # fmt: skip
+            entry["heldout_rmse"] = rmse
         entries.append(entry)
     for key, rank in (("bic", "rank_bic"), ("heldout_rmse", "rank_heldout")):
         for entry, r in zip(entries, ranks([e.get(key) for e in entries])):

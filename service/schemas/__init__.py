@@ -4,13 +4,15 @@
   :class:`FitOptions` the options of :func:`brdffit.fit`...);
 - :mod:`.results`: ``FitResult.to_dict()`` and ``Posterior.to_dict()``;
 - :mod:`.models`: ``Model.to_dict()``, its properties, evaluations;
-- :mod:`.service`: jobs, errors and health.
+- :mod:`.service`: jobs, errors and health;
+- :mod:`.comparisons`: comparisons of several models on one dataset.
 
 Answers forbid keys they do not declare, so every key a client receives is
 documented in the OpenAPI document; the tests compare each answer schema with
 the keys of a real ``to_dict()``.
 """
 
+from .comparisons import ComparisonBrief, ComparisonOut, EntryOut
 from .models import ClassificationOut, EvaluateOut, ModelOut, ParamOut, PropertiesOut
 from .requests import (
     EXAMPLE_DATA,
@@ -27,7 +29,10 @@ from .service import ErrorItem, ErrorOut, HealthOut, JobOut, JobProgress
 __all__ = [
     "EXAMPLE_DATA",
     "ClassificationOut",
+    "ComparisonBrief",
+    "ComparisonOut",
     "DataIn",
+    "EntryOut",
     "ErrorItem",
     "ErrorOut",
     "EvaluateIn",

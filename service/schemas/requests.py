@@ -112,6 +112,7 @@ class PosteriorOptions(BaseModel):
         POSTERIOR["max_seconds"],
         gt=0,
         le=1e6,
+        allow_inf_nan=False,
         description="Wall-clock budget (capped by the server's limit).",
     )
     seed: int | None = Field(
@@ -142,8 +143,9 @@ class FitOptions(BaseModel):
     start: dict[str, Number] | None = Field(None, description="Initial guess of shape params.")
     seed: int = Field(FIT["seed"], ge=0, le=SEED_MAX, description="Same seed, same result.")
     timeout: float | None = Field(
-        None, gt=0, le=1e6, description="Seconds (capped by the server's limit)."
-    )
+        None, gt=0, le=1e6, allow_inf_nan=False, description="Seconds (capped by the server's "
+        "limit)."
+    )  # fmt: skip
     max_evals: int | None = Field(None, ge=1, le=10**8, description="Cap on evaluations.")
     global_evals: int | None = Field(None, ge=1, le=10**7, description="Global-stage budget.")
     local_evals: int | None = Field(None, ge=1, le=10**7, description="Budget of each polish.")

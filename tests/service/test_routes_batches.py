@@ -48,7 +48,7 @@ def test_a_corrupt_file_refuses_the_batch_and_stores_nothing(client):
     files = [*_files("ward.csv"), ("files", ("bad.csv", b"theta_i,phi_i\n1,2\n", "text/csv"))]
     answer = client.post("/batches", files=files, data={"models": "ward"})
     assert answer.status_code == 422
-    assert answer.json()["field"] == "files[1]" and "bad.csv" in answer.json()["message"]
+    assert answer.json()["field"] == "files[1].header" and "bad.csv" in answer.json()["message"]
     assert client.get("/health").json()["jobs"] == before
 
 

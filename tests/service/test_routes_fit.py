@@ -210,7 +210,7 @@ def test_fit_file_errors_name_the_uploaded_file(client):
     answer = client.post(
         "/fit/file", files={"file": ("mine.csv", b"a,b\n1,2\n")}, data={"model": "ward"}
     )
-    body = assert_error(answer, 422, "header", "mine.csv")
+    body = assert_error(answer, 422, "file.header", "mine.csv")
     assert "/tmp" not in body["message"]
     answer = client.post(
         "/fit/file",

@@ -1,7 +1,7 @@
 """Every answer schema documents every key the library answers, no more, no fewer.
 
 The keys of a real fit, a real posterior, a real model, measured properties, a
-stored job and real progress reports are compared with the fields of their
+stored job, real progress reports and a comparison are compared with the fields of their
 schemas, and the answers validated against them (the schemas forbid keys they
 do not declare). Before this, the answers accepted any extra key and
 documented 5 of a posterior's 23 fields.
@@ -17,9 +17,14 @@ from service_helpers import example_measurements
 import brdffit
 from brdffit.jsonable import jsonable
 from brdffit.models.properties import model_properties
+from brdffit_service.comparisons import ComparisonStore
+from brdffit_service.routes.comparisons import _comparison
 from brdffit_service.schemas import (
     EXAMPLE_DATA,
     ClassificationOut,
+    ComparisonBrief,
+    ComparisonOut,
+    EntryOut,
     ErrorOut,
     FitResultOut,
     JobOut,
@@ -116,9 +121,33 @@ def test_a_failed_job_answers_an_error_of_the_error_schema(tmp_path):
     )
 
 
+def test_a_comparison_and_its_entries_have_exactly_the_fields_of_their_schemas(fitted, tmp_path):
+    result, _ = fitted
+    store = JobStore(tmp_path / "jobs.sqlite3")
+    data = data_to_bytes(example_measurements())
+    done, queued = (store.create("blinn", {}, data) for _ in range(2))
+    comparisons = ComparisonStore(store.path)
+    comparison_id = comparisons.create("x.csv", ["blinn", "blinn"], [done["id"], queued["id"]],
+                                       example_measurements(), 0.2, 1, 12)  # fmt: skip
+    store.start(done["id"], 1)
+    store.finish(done["id"], 1, result=jsonable(result.to_dict()))
+    answer = _comparison(store, comparison_id)
+    assert set(answer) == fields(ComparisonOut)
+    for entry in answer["entries"]:
+        assert set(entry) == fields(EntryOut)
+    assert answer["entries"][0]["heldout_rmse"] is not None
+    ComparisonOut.model_validate(answer)
+    (brief,) = comparisons.list()
+    assert set(brief) == fields(ComparisonBrief)
+    ComparisonBrief.model_validate(brief)
+
+
 @pytest.mark.parametrize(
     "schema",
     [
+        ComparisonOut,
+        ComparisonBrief,
+        EntryOut,
         FitResultOut,
         OptionsOut,
         WeightsOut,
