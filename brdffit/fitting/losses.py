@@ -78,9 +78,19 @@ class Loss:
     #: Weighted by a noise model estimated with the fit (``LossContext.noise_sigma``).
     needs_noise: bool = False
 
+    #: ``(t(f), dt(f))`` at once, where they share work (the log loss); None: apart.
+    both: Callable[[np.ndarray, LossContext], tuple] | None = None
+
+    def target(self, ctx: LossContext) -> np.ndarray:
+        """``t(y)``: computed once per context (the fit evaluates it at every step)."""
+        cache = ctx.__dict__.setdefault("_targets", {})  # a frozen dataclass's own dict
+        if self.name not in cache:
+            cache[self.name] = self.transform(ctx.y, ctx)
+        return cache[self.name]
+
     def value(self, pred: np.ndarray, ctx: LossContext) -> float:
         """The exact loss of predictions ``pred`` (M, C) against ``ctx.y``."""
-        d = self.transform(pred, ctx) - self.transform(ctx.y, ctx)
+        d = self.transform(pred, ctx) - self.target(ctx)
         d2 = d * d
         if ctx.weights is not None:
             d2 *= ctx.weights[:, None]
@@ -93,14 +103,18 @@ class Loss:
     def linearised(self, ref: np.ndarray, ctx: LossContext) -> tuple[np.ndarray, np.ndarray]:
         """Weights (M, C) and targets (M, C) of the least-squares problem in f that
         is the Gauss-Newton linearisation of this loss at the values ``ref``."""
-        dt = self.derivative(ref, ctx)
+        if self.linear:
+            t, dt = None, self.derivative(ref, ctx)
+        elif self.both is not None:
+            t, dt = self.both(ref, ctx)
+        else:
+            t, dt = self.transform(ref, ctx), self.derivative(ref, ctx)
         w = dt * dt
         if ctx.weights is not None:
             w = w * ctx.weights[:, None]
         if self.linear:
             return w, ctx.y
-        target = ref - (self.transform(ref, ctx) - self.transform(ctx.y, ctx)) / dt
-        return w, target
+        return w, ref - (t - self.target(ctx)) / dt
 
 
 def _cos(ctx: LossContext) -> np.ndarray:
@@ -109,6 +123,11 @@ def _cos(ctx: LossContext) -> np.ndarray:
 
 def _log_arg(f, ctx):
     return np.maximum(1.0 + f * _cos(ctx), 1e-12)
+
+
+def _log_both(f, ctx):
+    arg = _log_arg(f, ctx)
+    return np.log(arg), _cos(ctx) / arg
 
 
 def _cbrt_floor(ctx):
@@ -164,6 +183,7 @@ LOSSES: dict[str, Loss] = {
             False,
             "mean of (ln(1 + f cos(theta_i)) - ln(1 + y cos(theta_i)))^2",
             "Löw, Kronander, Ynnerman and Unger 2012, ACM TOG 31(1), E2",
+            both=_log_both,
         ),
         Loss(
             "cbrt",
