@@ -167,18 +167,8 @@ class _VisibleNormals:
         return np.where(below, lo, 1.0)
 
 
-def view_albedo(
-    v: np.ndarray, alpha_t: float, alpha_b: float, eta: float, quadrature: tuple = QUADRATURE
-) -> tuple:
-    """``(E_F, E_1)`` at views ``v`` (K, 3) given in the anisotropy frame (x = T).
-
-    ``E_F`` is the directional albedo of ``F(V.H; eta) S`` seen from ``v``,
-    ``E_1`` that of ``S`` (``F = 1``): module docstring. The integrand
-    ``F G2 / G1`` is smooth in ``u`` up to the horizon, where ``G2`` vanishes, so
-    ``u`` runs over Gauss-Legendre nodes up to the horizon (found by bisection;
-    not with FIT_QUADRATURE, which masks the pairs below it) and the azimuth
-    over equal steps (a periodic rule).
-    """
+def _visible_quadrature(v: np.ndarray, alpha_t: float, alpha_b: float, quadrature: tuple):
+    """``(V.m, w)`` (K, Q): ``sum(w X(V.m))`` is the albedo of ``X(V.H) S`` at ``v``."""
     v = np.asarray(v, dtype=float)
     n_u, n_phi = quadrature
     u_nodes, w_nodes, phi_nodes = _rule(n_u, n_phi)
@@ -193,8 +183,23 @@ def view_albedo(
     lz = np.maximum(lz, 1e-12)
     lam_v = _lambda(v[:, 0], v[:, 1], v[:, 2], alpha_t, alpha_b)[:, None]
     ratio = weights * (1.0 + lam_v) / (1.0 + lam_v + _lambda(lx, ly, lz, alpha_t, alpha_b))
-    fresnel = fresnel_dielectric(np.clip(c, 1e-12, 1.0), eta)
-    return (ratio * fresnel).sum(axis=1), ratio.sum(axis=1)
+    return np.clip(c, 1e-12, 1.0), ratio
+
+
+def view_albedo(
+    v: np.ndarray, alpha_t: float, alpha_b: float, eta: float, quadrature: tuple = QUADRATURE
+) -> tuple:
+    """``(E_F, E_1)`` at views ``v`` (K, 3) given in the anisotropy frame (x = T).
+
+    ``E_F`` is the directional albedo of ``F(V.H; eta) S`` seen from ``v``,
+    ``E_1`` that of ``S`` (``F = 1``): module docstring. The integrand
+    ``F G2 / G1`` is smooth in ``u`` up to the horizon, where ``G2`` vanishes, so
+    ``u`` runs over Gauss-Legendre nodes up to the horizon (found by bisection;
+    not with FIT_QUADRATURE, which masks the pairs below it) and the azimuth
+    over equal steps (a periodic rule).
+    """
+    c, ratio = _visible_quadrature(v, alpha_t, alpha_b, quadrature)
+    return (ratio * fresnel_dielectric(c, eta)).sum(axis=1), ratio.sum(axis=1)
 
 
 def _frame_views(geometry: Geometry, rotation: float, isotropic: bool):
