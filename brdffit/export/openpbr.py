@@ -38,10 +38,18 @@ RENDER_NOTE = (
 )
 
 
+#: Local evaluations of the final polish with the full-accuracy quadrature.
+POLISH_EVALS = 80
+
+
 def fit_native(material: Material, model, data=None) -> Material:
-    """``model`` (OpenPBR's or Blender's BRDF) fitted to the material or the data."""
+    """``model`` (OpenPBR's or Blender's BRDF) fitted to the material or the data:
+    searched with the coarse quadrature, then polished with the full one."""
     samples, _ = reference_data(material, data)
-    result = fit(samples, for_fitting(model), loss="log")
+    coarse = fit(samples, for_fitting(model), loss="log")
+    start = {p.name: coarse.params[p.name] for p in model.shape_params}
+    result = fit(samples, model, loss="log", start=start, global_algorithm=None, restarts=0,
+                 local_evals=POLISH_EVALS)  # fmt: skip
     return Material(model, dict(result.params), tuple(samples.channels))
 
 
