@@ -88,7 +88,8 @@ def test_layering_is_albedo_scaling_seen_from_the_viewer(plastic):
 def tinted_metal():
     """Data synthesised from an OpenPBR metal by renderer_reference, exported."""
     truth = {"base_weight": 1.0, "base_color": [0.95, 0.64, 0.54], "base_metalness": 1.0,
-             "specular_color": [0.7] * 3, "specular_roughness": 0.35, "specular_ior": 1.5}  # fmt: skip
+             "specular_color": [0.7] * 3, "specular_roughness": 0.35,
+             "specular_ior": 1.5}  # fmt: skip
     grid = gonio("lambert", {"kd": 0.5}, noise=0.0)
     values = ref.openpbr(grid.wi, grid.wo, truth)
     data = brdffit.Measurements(grid.wi, grid.wo, values, channels=("r", "g", "b"))
