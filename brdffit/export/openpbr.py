@@ -39,7 +39,7 @@ RENDER_NOTE = (
 
 
 #: Local evaluations of the final polish with the full-accuracy quadrature.
-POLISH_EVALS = 80
+POLISH_EVALS = 60
 
 
 def fit_native(material: Material, model, data=None) -> Material:
