@@ -81,7 +81,9 @@ __all__ = [
 #: The cosine of F82-tint's "grazing edge", about 81.8 degrees.
 MU_BAR = 1.0 / 7.0
 #: Nodes of the visible-normal quadrature: Gauss-Legendre in u, equal steps in azimuth.
-QUADRATURE = (32, 48)
+#: E comes within 1e-5 (absolute) of a 64 x 256 rule for moderate anisotropy, 1e-4
+#: for alpha_t / alpha_b = 9 at grazing views.
+QUADRATURE = (24, 40)
 #: The quadrature of the models a fit searches with: no horizon search, E within
 #: about 2 % of QUADRATURE's (the polish that follows uses QUADRATURE), twenty times
 #: faster. Stated errors always use QUADRATURE.
@@ -157,7 +159,7 @@ class _VisibleNormals:
         c = mx * v[0] + my * v[1] + mz * v[2]
         return c, 2.0 * c * mx - v[0], 2.0 * c * my - v[1], 2.0 * c * mz - v[2]
 
-    def horizon(self, phi: np.ndarray, steps: int = 20) -> np.ndarray:
+    def horizon(self, phi: np.ndarray, steps: int = 14) -> np.ndarray:
         """Per azimuth ``phi`` (Q,), the ``u`` (K, Q) beyond which ``L`` is below the
         horizon (1: never)."""
         trig = np.cos(phi), np.sin(phi)
