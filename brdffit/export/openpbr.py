@@ -14,9 +14,10 @@ Written inputs: ``base_weight = 1``, ``base_color``, ``base_metalness``,
 ``specular_color`` (grey), ``specular_roughness`` (``alpha = r^2``),
 ``specular_roughness_anisotropy`` and ``specular_ior``. The anisotropy runs
 along ``geometry_tangent``, which is the mesh tangent (x of brdffit's frame); a
-fit whose anisotropy axis is turned by ``anisotropy_rotation`` gets a node
-graph that turns the world tangent counter-clockwise about the normal
-(MaterialX ``rotate3d``, in degrees).
+fit whose anisotropy axis is turned by ``anisotropy_rotation`` (``r``) gets a
+node graph that turns the world tangent counter-clockwise about the normal,
+``T cos(r) + (N x T) sin(r)`` (a cross product: MaterialX's ``rotate3d`` does
+not say which way it turns, and its GLSL and OSL code read differently).
 """
 
 from __future__ import annotations
@@ -90,6 +91,9 @@ def openpbr_parameters(native: Material) -> dict:
 
 
 def _tangent_graph(name: str, degrees: float) -> list:
+    """``T cos(r) + (N x T) sin(r)``: the tangent turned counter-clockwise about ``N``
+    (written with a cross product, whose handedness is fixed, not ``rotate3d``)."""
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
     return [
         f'  <nodegraph name="{name}_tangent">',
         '    <tangent name="tangent" type="vector3">',
@@ -98,11 +102,22 @@ def _tangent_graph(name: str, degrees: float) -> list:
         '    <normal name="normal" type="vector3">',
         '      <input name="space" type="string" value="world" />',
         "    </normal>",
-        '    <rotate3d name="turned" type="vector3">',
-        '      <input name="in" type="vector3" nodename="tangent" />',
-        f'      <input name="amount" type="float" value="{degrees:.9g}" />',
-        '      <input name="axis" type="vector3" nodename="normal" />',
-        "    </rotate3d>",
+        '    <crossproduct name="bitangent" type="vector3">',
+        '      <input name="in1" type="vector3" nodename="normal" />',
+        '      <input name="in2" type="vector3" nodename="tangent" />',
+        "    </crossproduct>",
+        '    <multiply name="along_tangent" type="vector3">',
+        '      <input name="in1" type="vector3" nodename="tangent" />',
+        f'      <input name="in2" type="float" value="{c:.9g}" />',
+        "    </multiply>",
+        '    <multiply name="along_bitangent" type="vector3">',
+        '      <input name="in1" type="vector3" nodename="bitangent" />',
+        f'      <input name="in2" type="float" value="{s:.9g}" />',
+        "    </multiply>",
+        '    <add name="turned" type="vector3">',
+        '      <input name="in1" type="vector3" nodename="along_tangent" />',
+        '      <input name="in2" type="vector3" nodename="along_bitangent" />',
+        "    </add>",
         '    <output name="out" type="vector3" nodename="turned" />',
         "  </nodegraph>",
     ]

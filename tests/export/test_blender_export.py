@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 import renderer_reference as ref
+from helpers import hemisphere_pairs
 
 import brdffit
 from brdffit import export
@@ -88,3 +89,22 @@ def test_anisotropic_rotation_turns_the_tangent_x():
     assert min(abs(inputs["Anisotropic Rotation"] - t) for t in (0.25, 0.75)) < 0.015
     assert inputs["Anisotropic"] > 0.3
     assert rms == pytest.approx(e.conversion_error["rms_log_target"], rel=1e-4)
+
+
+def test_anisotropic_rotation_is_a_counter_clockwise_fraction_of_a_turn():
+    """Anisotropic Rotation = rotation / 2 pi; Cycles turns T = x by 2 pi x it towards y."""
+    from brdffit.export.blender import blender_inputs
+    from brdffit.export.core import Material
+    from brdffit.export.openpbr_brdf import BLENDER_ANISOTROPIC as MODEL
+
+    params = {"base_color": [0.5, 0.4, 0.3], "metallic": 0.5, "roughness": 0.5,
+              "anisotropic": 0.7, "anisotropy_rotation": 0.5, "ior": 1.6}  # fmt: skip
+    native = Material(MODEL, MODEL.check_params(params), ("r", "g", "b"))
+    inputs = blender_inputs(native)
+    assert inputs["Anisotropic Rotation"] == pytest.approx(0.5 / (2 * math.pi), rel=1e-12)
+    wi, wo = hemisphere_pairs(60, seed=6, grazing=False)
+    keep = wo[:, 2] > 0.1
+    wi, wo = wi[keep], wo[keep]
+    np.testing.assert_allclose(native.evaluate(wi, wo), ref.blender(wi, wo, inputs), rtol=1e-4)
+    mirrored = {**inputs, "Anisotropic Rotation": 1 - inputs["Anisotropic Rotation"]}
+    assert not np.allclose(native.evaluate(wi, wo), ref.blender(wi, wo, mirrored), rtol=1e-2)

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 import renderer_reference as ref
+from helpers import hemisphere_pairs
 
 import brdffit
 from brdffit import export
@@ -38,11 +39,16 @@ def read_materialx(text: str):
         value = given.getValue()
         q[given.getName()] = list(value) if given.getType() == "color3" else value
     graph = doc.getNodeGraph("brdffit_tangent")
-    if graph is not None:
-        turn = graph.getNode("turned")
-        assert turn.getCategory() == "rotate3d"
-        assert turn.getInput("axis").getNodeName() == "normal"
-        q["rotation"] = math.radians(turn.getInputValue("amount"))
+    if graph is not None:  # T cos(r) + (N x T) sin(r)
+        cross = graph.getNode("bitangent")
+        assert cross.getCategory() == "crossproduct"
+        assert [cross.getInput(i).getNodeName() for i in ("in1", "in2")] == ["normal", "tangent"]
+        turned = graph.getNode("turned")
+        parts = [graph.getNode(turned.getInput(i).getNodeName()) for i in ("in1", "in2")]
+        assert [p.getInput("in1").getNodeName() for p in parts] == ["tangent", "bitangent"]
+        cos, sin = (p.getInputValue("in2") for p in parts)
+        assert cos * cos + sin * sin == pytest.approx(1.0, rel=1e-6)  # MaterialX floats are 32-bit
+        q["rotation"] = math.atan2(sin, cos)
     return q
 
 
@@ -136,3 +142,25 @@ def test_anisotropy_follows_the_tangent_x():
     assert q["specular_roughness_anisotropy"] > 0.3
     assert rms == pytest.approx(e.conversion_error["rms_log_target"], rel=1e-4)
     assert any("geometry_tangent" in n for n in e.notes)
+
+
+def test_document_turns_the_tangent_counter_clockwise():
+    """The node graph's tangent is x turned by +0.5 rad towards y, as the native model's."""
+    from brdffit.export.core import Material
+    from brdffit.export.openpbr import openpbr_document, openpbr_parameters
+    from brdffit.export.openpbr_brdf import OPENPBR_ANISOTROPIC
+
+    params = {"base_color": [0.5, 0.4, 0.3], "base_metalness": 0.5, "specular_roughness": 0.5,
+              "specular_roughness_anisotropy": 0.7, "anisotropy_rotation": 0.5,
+              "specular_ior": 1.6, "specular_color": 0.9}  # fmt: skip
+    model = OPENPBR_ANISOTROPIC
+    native = Material(model, model.check_params(params), ("r", "g", "b"))
+    q = read_materialx(openpbr_document(openpbr_parameters(native)))
+    assert q["rotation"] == pytest.approx(0.5, rel=1e-6)
+    wi, wo = hemisphere_pairs(60, seed=5, grazing=False)
+    keep = wo[:, 2] > 0.1
+    np.testing.assert_allclose(native.evaluate(wi[keep], wo[keep]),
+                               ref.openpbr(wi[keep], wo[keep], q), rtol=1e-4)  # fmt: skip
+    q["rotation"] = -0.5
+    assert not np.allclose(native.evaluate(wi[keep], wo[keep]), ref.openpbr(wi[keep], wo[keep], q),
+                           rtol=1e-2)  # fmt: skip
