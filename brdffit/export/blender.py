@@ -27,7 +27,7 @@ import math
 
 from ..models import get_model
 from .core import Material, rgb
-from .openpbr import fit_native
+from .openpbr import fit_native, subsample_note
 from .openpbr_brdf import BLENDER, BLENDER_ANISOTROPIC
 
 __all__ = ["blender_material", "blender_inputs", "blender_document"]
@@ -48,6 +48,7 @@ def blender_material(material: Material, data=None) -> tuple:
         "it (log loss); the error is that of the fitted Principled material.",
         RENDER_NOTE,
         "Set the node's distribution to GGX (the snippet does): multiscatter GGX adds energy.",
+        *subsample_note(data),
     )
     if aniso:
         notes += ("Anisotropy needs a tangent: the fit's x axis is the tangent.",)

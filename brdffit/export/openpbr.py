@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..fitting import fit
 from ..models import get_model
 from .core import Material, reference_data, rgb
@@ -41,17 +43,34 @@ RENDER_NOTE = (
 
 #: Local evaluations of the final polish with the full-accuracy quadrature.
 POLISH_EVALS = 60
+#: Larger data are fitted on a seeded subsample of this many samples (each distinct
+#: view direction costs an E(V) per evaluation); the error is stated on all of them.
+FIT_SAMPLES = 1000
 
 
 def fit_native(material: Material, model, data=None) -> Material:
     """``model`` (OpenPBR's or Blender's BRDF) fitted to the material or the data:
-    searched with the coarse quadrature, then polished with the full one."""
+    searched with the coarse quadrature, then polished with the full one, on at
+    most FIT_SAMPLES samples."""
     samples, _ = reference_data(material, data)
+    rgb(np.zeros(len(samples.channels)), samples.channels)  # one or three, before the fit
+    if samples.n > FIT_SAMPLES:
+        samples = samples.subsample(FIT_SAMPLES, seed=0)
     coarse = fit(samples, for_fitting(model), loss="log")
     start = {p.name: coarse.params[p.name] for p in model.shape_params}
     result = fit(samples, model, loss="log", start=start, global_algorithm=None, restarts=0,
                  local_evals=POLISH_EVALS)  # fmt: skip
     return Material(model, dict(result.params), tuple(samples.channels))
+
+
+def subsample_note(data) -> tuple:
+    """What a fit to large data says about its subsample."""
+    if data is None or data.n <= FIT_SAMPLES:
+        return ()
+    return (
+        f"fitted on a seeded subsample of {FIT_SAMPLES} of the {data.n} samples; "
+        "the error is stated on all of them.",
+    )
 
 
 def openpbr_material(material: Material, data=None) -> tuple:
@@ -62,6 +81,7 @@ def openpbr_material(material: Material, data=None) -> tuple:
         f"{material.model} is not OpenPBR's BRDF: OpenPBR's opaque base was fitted to it "
         "(log loss); the error is that of the fitted OpenPBR material.",
         RENDER_NOTE,
+        *subsample_note(data),
     )
     if aniso:
         notes += (
