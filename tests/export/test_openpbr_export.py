@@ -164,3 +164,12 @@ def test_document_turns_the_tangent_counter_clockwise():
     q["rotation"] = -0.5
     assert not np.allclose(native.evaluate(wi[keep], wo[keep]), ref.openpbr(wi[keep], wo[keep], q),
                            rtol=1e-2)  # fmt: skip
+
+
+def test_more_than_three_channels_are_refused_before_any_fit():
+    names = ("450nm", "500nm", "550nm", "600nm", "650nm")
+    data = brdffit.synthesize("lambert", {"kd": [0.5] * 5}, geometry="gonio", channels=names)
+    seed = {"model": "lambert", "params": {"kd": [0.5] * 5}, "channels": list(names)}
+    with pytest.raises(brdffit.ParameterError, match="one or three channels") as raised:
+        export(seed, "openpbr", data=data)
+    assert raised.value.field == "channels"
