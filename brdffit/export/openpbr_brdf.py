@@ -39,13 +39,14 @@ distribution GGX; kernel/closure/bsdf_microfacet.h, bsdf_util.h)
     ``closure_layering_weight`` takes ``1 - mix(F0, 1, s)``; with the
     single-scatter GGX no energy compensation multiplies it back.
 
-Neither renderer computes ``E`` exactly (MaterialX fits an analytic curve and
-adds a multiple-scattering compensation; Cycles reads a 16^3 Monte-Carlo
-table); this module evaluates the formulas they approximate, with ``E_F``
-and ``E_1`` integrated over the visible normals of the view direction
-(Heitz, "Sampling the GGX distribution of visible normals", JCGT 7(4), 2018):
-``E_F(V) = int F(V.m) G2(V, L) / G1(V) dD_V(m)``, ``L`` the mirror of ``V``
-about ``m``, on a Gauss-Legendre grid in the two uniform variables.
+Neither renderer computes ``E`` exactly (MaterialX fits an analytic curve at
+the mean alpha and adds a multiple-scattering compensation; Cycles reads a
+16^3 Monte-Carlo table at the mean roughness); this module evaluates the
+formulas they approximate, with ``E_F`` and ``E_1`` integrated over the
+visible normals of the view direction (Heitz, "Sampling the GGX distribution
+of visible normals", JCGT 7(4), 2018): ``E_F(V) = int F(V.m) G2(V, L) / G1(V)
+dD_V(m)``, ``L`` the mirror of ``V`` about ``m``, Gauss-Legendre in the radial
+variable up to the horizon and equal steps in azimuth (:func:`view_albedo`).
 
 References: OpenPBR Surface specification v1.1 (AcademySoftwareFoundation/OpenPBR,
 index.html) and reference/open_pbr_surface.mtlx; MaterialX
