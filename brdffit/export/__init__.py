@@ -12,7 +12,7 @@ import numpy as np
 from ..data.geometry import Geometry
 from ..errors import ParameterError
 from ..models import get_model
-from .blender import blender_document, blender_inputs
+from .blender import blender_document, blender_inputs, blender_material
 from .core import (
     Export,
     Material,
@@ -31,7 +31,8 @@ from .mitsuba import (
     principled,
     roughplastic,
 )
-from .openpbr import openpbr_document, openpbr_parameters
+from .openpbr import openpbr_document, openpbr_material, openpbr_parameters
+from .openpbr_albedo import native_albedo as fitted_albedo
 from .pbrt import pbrt_model, pbrt_parameters, pbrt_statement, pbrt_values
 
 __all__ = ["Export", "Material", "export", "export_targets", "material_from_gltf", "material_of"]
@@ -40,9 +41,9 @@ TARGETS = {
     "mitsuba": "Mitsuba 3 dict for mitsuba.load_dict (diffuse, roughconductor, blendbsdf)",
     "mitsuba-xml": "Mitsuba 3 XML <bsdf> fragment (the same BSDF)",
     "gltf": "glTF 2.0 asset with one metallic-roughness material (+ KHR_materials_anisotropy)",
-    "openpbr": "MaterialX document with an open_pbr_surface",
+    "openpbr": "MaterialX document with an open_pbr_surface (OpenPBR's BRDF fitted)",
     "pbrt": "pbrt-v4 material statements (mix of diffuse and conductor)",
-    "blender": "Blender 4 Principled BSDF inputs and a Python snippet",
+    "blender": "Blender 4 Principled BSDF (GGX) inputs and a Python snippet (its BRDF fitted)",
 }
 
 
@@ -74,6 +75,8 @@ def export(result, target: str, data=None) -> Export:
         return _via_pbrt(material, data)
     if target in ("mitsuba", "mitsuba-xml"):
         return _via_mitsuba(material, target, data)
+    if target in ("openpbr", "blender"):
+        return _via_fitted(material, target, data)
     return _via_gltf(material, target, data)
 
 
@@ -153,18 +156,20 @@ def _probe_pairs():
 def _via_gltf(material: Material, target: str, data) -> Export:
     native, exact, notes = gltf_material(material, data)
     error = conversion_error(material, native.evaluate, native_albedo(native), data)
-    if target == "gltf":
-        document = gltf_document(native)
-        params = document["materials"][0]
-        ext = "gltf"
-    elif target == "openpbr":
+    document = gltf_document(native)
+    params = document["materials"][0]
+    return Export(document, target, params, {**error, "exact": exact}, notes, native, "gltf")
+
+
+def _via_fitted(material: Material, target: str, data) -> Export:
+    """OpenPBR or Blender: the target's own BRDF fitted, its error stated."""
+    if target == "openpbr":
+        native, notes = openpbr_material(material, data)
         params = openpbr_parameters(native)
         document, ext = openpbr_document(params), "mtlx"
-        notes = (*notes, "OpenPBR's BRDF is not evaluated here: the error is glTF's.")
-        exact = False
     else:
+        native, notes = blender_material(material, data)
         params = blender_inputs(native)
         document, ext = blender_document(params), "json"
-        notes = (*notes, "Blender's Principled BSDF is not evaluated here: the error is glTF's.")
-        exact = False
-    return Export(document, target, params, {**error, "exact": exact}, notes, native, ext)
+    error = conversion_error(material, native.evaluate, fitted_albedo(native), data)
+    return Export(document, target, params, {**error, "exact": False}, notes, native, ext)

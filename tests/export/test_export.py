@@ -229,17 +229,6 @@ def test_pbrt_grey_specular_is_written_with_eta_and_k(plastic):
     assert e.conversion_error["rms_log_target"] < 0.02
 
 
-def test_openpbr_is_materialx_with_the_gltf_values(plastic):
-    e = export(plastic[0], "openpbr")
-    g = export(plastic[0], "gltf").document["materials"][0]["pbrMetallicRoughness"]
-    root = ET.fromstring(e.document)
-    surface = root.find("open_pbr_surface")
-    inputs = {i.get("name"): i.get("value") for i in surface.findall("input")}
-    assert float(inputs["specular_roughness"]) == pytest.approx(g["roughnessFactor"], 1e-8)
-    assert float(inputs["base_metalness"]) == pytest.approx(g["metallicFactor"], 1e-8)
-    assert root.find("surfacematerial") is not None
-
-
 def test_blender_inputs_and_snippet(brushed):
     e = export(brushed[0], "blender")
     inputs = e.document["principled_bsdf"]["inputs"]
