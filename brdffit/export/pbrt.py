@@ -13,16 +13,17 @@ exact (a ``conductor``'s of ``eta + i k``, written as constant spectra, or from 
 averages to ``(1 - amount) m0 + amount m1``.
 
 Three forms are fitted (to the material, or to the data) and evaluated here from
-those formulas; the export writes the one with the lowest conversion error (RMS of
-``ln(1 + f cos)``, :func:`brdffit.export.core.rms_log_error`) and its notes name
-all three errors:
+those formulas; the export writes the simplest (in this order) whose conversion error
+(RMS of ``ln(1 + f cos)``, :func:`brdffit.export.core.rms_log_error`) is within
+0.005 of the lowest (half a percent of ``1 + f cos``, below the noise of most
+measurements), so a metal whose mix keeps a negligible diffuse term is written as a
+plain conductor; its notes name all three errors:
 
 - ``conductor`` (metals): ``F(V.H; eta + i k) D G / (4 N.L N.V)``, no scale and
-  no diffuse term. The fit has a scale ``ks`` per channel; a statement with
-  ``eta, k`` carries it only when ``ks = 1``, otherwise it is written as
-  ``reflectance = ks F(0)`` per channel, which keeps the colour and the value at
-  normal incidence, not the Fresnel's shape (a note says so; the error is that of
-  the statement as written).
+  no diffuse term: fitted as such (one grey ``eta + i k``, exactly what is written)
+  and, for a coloured metal, with a scale ``ks`` per channel written as
+  ``reflectance = ks F(0)``, which keeps the colour and the value at normal
+  incidence, not the Fresnel's shape; the closer of the two is the candidate.
 - ``coateddiffuse`` (plastics, paints): pbrt's layered BSDF, stochastic in pbrt;
   its expectation in closed form is :mod:`brdffit.export.pbrt_layer`
   (``PBRT_COATEDDIFFUSE``), written with pbrt's defaults made explicit
@@ -33,11 +34,13 @@ all three errors:
   keeps only its brightest channel.
 
 pbrt's ``dielectric`` is never written: it transmits the ``1 - F`` that a measured
-opaque material sends back or absorbs, so a render would see through it. The opaque
-dielectric is a ``coateddiffuse`` with ``reflectance 0``: a black base absorbs what
-the coat transmits and the BRDF is exactly the rough dielectric's reflection
-``F(V.H; eta) D G / (4 N.L N.V)``; the coateddiffuse fit reaches it (its
-``reflectance`` is solved for, down to 0).
+opaque material sends back or absorbs, so a render would see through it. An opaque
+dielectric (black glossy plastic, paint, glass on black) reflects only
+``F(V.H; eta) D G / (4 N.L N.V)``, which two of the forms give exactly: a
+``conductor`` with ``k = 0`` (pbrt's ``FrComplex`` with a real index is
+``FrDielectric`` for ``eta >= 1``) and a ``coateddiffuse`` with ``reflectance 0``
+(a black base absorbs what the coat transmits); the conductor fit reaches it, and
+being the simpler it is written.
 """
 
 from __future__ import annotations
@@ -62,7 +65,9 @@ from .pbrt_layer import (
 from .pbrt_statement import pbrt_statement
 
 R_MAX = 0.9999
+#: The forms, simplest first; the first within CLOSE of the lowest error wins.
 FORMS = ("conductor", "coateddiffuse", "mix")
+CLOSE = 0.005
 _REFERENCE = "pbrt-v4 (M. Pharr, W. Jakob, G. Humphreys), materials.cpp, bxdfs.h"
 _ANISOTROPIC = Classification("physical", "anisotropic", "cosine", "material")
 
@@ -98,17 +103,27 @@ PBRT_MIX = Model(
     doc="kd/pi + ks F(eta + i k) D G2 / (4 N.L N.V): pbrt-v4's mix of diffuse and conductor.",
 )
 
-#: The conductor fitted before writing pbrt's ``conductor`` (unregistered).
+#: pbrt's ``conductor`` as fitted: one ``eta + i k`` and no scale (unregistered).
 PBRT_CONDUCTOR = Model(
     name="pbrt_conductor",
+    params=_shape_params(),
+    classification=_ANISOTROPIC,
+    reference=_REFERENCE,
+    design=lambda geometry, shape: Design((), _spec_design(geometry, shape)),
+    doc="F(eta + i k) D G2 / (4 N.L N.V): pbrt-v4's conductor.",
+)
+
+#: With a scale per channel, written as pbrt's ``reflectance`` (unregistered).
+PBRT_CONDUCTOR_SCALED = Model(
+    name="pbrt_conductor_scaled",
     params=(
-        Param("ks", 0.0, 1.0, 1.0, linear=True, unit="1", doc="scale (1 in pbrt; see notes)"),
+        Param("ks", 0.0, 1.0, 1.0, linear=True, unit="1", doc="scale (F(0) = ks F(0; eta, k))"),
         *_shape_params(),
     ),
     classification=_ANISOTROPIC,
     reference=_REFERENCE,
     design=lambda geometry, shape: Design((_spec_design(geometry, shape),)),
-    doc="ks F(eta + i k) D G2 / (4 N.L N.V): pbrt-v4's conductor (ks = 1 in pbrt).",
+    doc="ks F(eta + i k) D G2 / (4 N.L N.V), written as pbrt's conductor reflectance.",
 )
 
 
@@ -143,19 +158,26 @@ def _fresnel(q: dict, ks: np.ndarray, w: float, p) -> tuple:
 
 
 def _conductor(material: Material, data) -> tuple:
-    """(parameters of pbrt's ``conductor``, notes): PBRT_CONDUCTOR fitted, then written."""
-    native = to_native(material, PBRT_CONDUCTOR, data)
+    """(parameters of pbrt's ``conductor``, notes): the closer of PBRT_CONDUCTOR fitted
+    (one ``eta + i k``, grey) and PBRT_CONDUCTOR_SCALED written with ``reflectance``."""
+    grey = to_native(material, PBRT_CONDUCTOR, data).params
+    q_grey = {"form": "conductor", "uroughness": float(grey["alpha_u"]),
+              "vroughness": float(grey["alpha_v"]), "eta": float(grey["eta"]),
+              "k": float(grey["k"])}  # fmt: skip
+    native = to_native(material, PBRT_CONDUCTOR_SCALED, data)
     p = native.params
     ks = np.asarray(rgb(p["ks"], native.channels))
-    q = {"form": "conductor", "uroughness": float(p["alpha_u"]), "vroughness": float(p["alpha_v"])}
-    if ks.min() >= 0.999:
-        q["eta"], q["k"] = float(p["eta"]), float(p["k"])
-        return q, ()
     f0 = float(fresnel_conductor(np.ones(1), p["eta"], p["k"])[0])
+    q = {"form": "conductor", "uroughness": float(p["alpha_u"]), "vroughness": float(p["alpha_v"])}
     q["reflectance"] = np.clip(ks * f0, 0.0, R_MAX).tolist()
-    note = (f"the conductor's fitted scale {ks.round(4).tolist()} (pbrt has none) is written "
-            "as its reflectance (F at normal incidence, eta = 1): the colour and F(0) are "
-            "kept, the Fresnel's angular shape is pbrt's")  # fmt: skip
+    errors = [rms_log_error(material, _evaluator(x), data) for x in (q_grey, q)]
+    if errors[0] <= errors[1]:
+        return q_grey, ()
+    note = (
+        f"conductor: a scale {ks.round(4).tolist()} per channel (pbrt has none) fitted "
+        "closer than one eta + i k; written as pbrt's reflectance (F at normal incidence, "
+        "eta = 1): the colour and F(0) are kept, the Fresnel's angular shape is pbrt's"
+    )
     return q, (note,)
 
 
@@ -261,9 +283,10 @@ def pbrt_parameters(material: Material, data=None, forms=FORMS) -> tuple:
     build = {"conductor": _conductor, "coateddiffuse": _coated, "mix": _mix}
     candidates = {f: build[f](material, data) for f in forms}
     errors = {f: rms_log_error(material, _evaluator(q), data) for f, (q, _) in candidates.items()}
-    best = min(errors, key=errors.get)
+    lowest = min(errors.values())
+    best = next(f for f in FORMS if f in errors and errors[f] <= lowest + CLOSE)
     q, notes = candidates[best]
     listed = ", ".join(f"{f} {e:.4g}" for f, e in errors.items())
-    choice = (f"pbrt form {best}: the lowest conversion error (RMS of ln(1 + f cos)) of "
-              f"{listed}")  # fmt: skip
+    choice = (f"pbrt form {best}: the simplest form within {CLOSE} of the lowest "
+              f"conversion error (RMS of ln(1 + f cos)): {listed}")  # fmt: skip
     return q, (choice, *notes)
