@@ -51,15 +51,15 @@ from ..models import Design, Model, Param
 from ..models.base import INV_PI, Classification
 from ..models.params import roughness
 from ..models.renderer_native import gltf_specular
-from ..models.shared import fresnel_conductor, fresnel_dielectric
+from ..models.shared import fresnel_conductor
 from .core import Material, rgb, rms_log_error, to_native
 from .pbrt_layer import (
     MAXDEPTH,
     PBRT_COATEDDIFFUSE,
+    coated_brdf,
     coated_tables,
     depth_bounces,
     reflectance_from_diffuse,
-    series,
     transmittance,
 )
 from .pbrt_statement import pbrt_statement
@@ -199,12 +199,17 @@ def _coated(material: Material, data) -> tuple:
         "internal_reflectance": r,
     }
     n = depth_bounces(MAXDEPTH)
-    x = reflectance * r
-    short = (x**n * 100).round(3).tolist()
+    short = ((reflectance * r) ** n * 100).round(3).tolist()
+    cos = np.cos(np.radians([0.0, 60.0]))
+    ratio = transmittance(cos, alpha, eta, thickness, True) / transmittance(
+        cos, alpha, eta, thickness
+    )
     notes = [
-        f"coateddiffuse: pbrt's random walk has this closed-form expectation (pbrt_layer); "
-        f"maxdepth {MAXDEPTH} allows {n} bounces on the base, {short} % of the diffuse "
-        "term short of the full series (included)",
+        "coateddiffuse: evaluated as the expectation of pbrt's estimator (pbrt_layer), whose "
+        f"MIS weights make its diffuse term {ratio[0]:.3f} (light at 0 deg) to "
+        f"{ratio[1]:.3f} (60 deg) times the layered model's; maxdepth {MAXDEPTH} allows "
+        f"{n} bounces on the base, {short} % of the diffuse term short of the full series "
+        "(included)",
     ]
     if clipped:
         notes.append("coateddiffuse: the fitted diffuse term exceeds what reflectance 1 gives; "
@@ -220,25 +225,11 @@ def _conductor_eta_k(q: dict):
     return [(1.0, float(2.0 * np.sqrt(x) / np.sqrt(1.0 - x))) for x in r]
 
 
-def _coated_values(geometry, q: dict) -> np.ndarray:
-    alpha, eta, thickness = q["uroughness"], q["eta"], q["thickness"]
-    top = gltf_specular(geometry, alpha, alpha) * fresnel_dielectric(geometry.cos_d, eta)
-    r = coated_tables(alpha, eta, thickness)[1]
-    column = transmittance(geometry.wi[:, 2], alpha, eta, thickness)
-    column = column * transmittance(geometry.wo[:, 2], alpha, eta, thickness)
-    column /= np.pi * eta * eta
-    n = depth_bounces(q["maxdepth"])
-    out = np.empty((geometry.m, 3))
-    for c, big_r in enumerate(q["reflectance"]):
-        out[:, c] = top + big_r * series(big_r * r, n) * column
-    return out
-
-
 def pbrt_values(geometry, q: dict) -> np.ndarray:
     """The pbrt BRDF of parameters ``q`` (any form), shape (M, 3)."""
     form = q.get("form", "mix")
     if form == "coateddiffuse":
-        return _coated_values(geometry, q)
+        return coated_brdf(geometry, q)
     spec = gltf_specular(geometry, q["uroughness"], q["vroughness"])
     amount = q["amount"] if form == "mix" else 1.0
     out = np.empty((geometry.m, 3))
