@@ -16,8 +16,9 @@ Three forms are fitted (to the material, or to the data) and evaluated here from
 those formulas; the export writes the simplest (in this order) whose conversion error
 (RMS of ``ln(1 + f cos)``, :func:`brdffit.export.core.rms_log_error`) is within
 0.005 of the lowest (half a percent of ``1 + f cos``, below the noise of most
-measurements), so a metal whose mix keeps a negligible diffuse term is written as a
-plain conductor; its notes name all three errors:
+measurements): a metal whose mix keeps a negligible diffuse term is written as a
+plain conductor, a paint as a coateddiffuse unless the mix is clearly closer; the
+notes name all three errors:
 
 - ``conductor`` (metals): ``F(V.H; eta + i k) D G / (4 N.L N.V)``, no scale and
   no diffuse term: fitted as such (one grey ``eta + i k``, exactly what is written)
@@ -25,9 +26,11 @@ plain conductor; its notes name all three errors:
   ``reflectance = ks F(0)``, which keeps the colour and the value at normal
   incidence, not the Fresnel's shape; the closer of the two is the candidate.
 - ``coateddiffuse`` (plastics, paints): pbrt's layered BSDF, stochastic in pbrt;
-  its expectation in closed form is :mod:`brdffit.export.pbrt_layer`
-  (``PBRT_COATEDDIFFUSE``), written with pbrt's defaults made explicit
-  (``thickness 0.01``, ``maxdepth 10``, ``albedo 0``) and isotropic roughness.
+  the expectation of pbrt's own estimator, in closed form, is
+  :mod:`brdffit.export.pbrt_layer` (``PBRT_COATEDDIFFUSE``; its MIS weights make
+  it brighter than the layered model, as that module says), written with pbrt's
+  defaults made explicit (``thickness 0.01``, ``maxdepth 10``, ``albedo 0``) and
+  isotropic roughness.
 - ``mix`` of ``diffuse`` and ``conductor``: ``(1 - w) R / pi + w F D G / (4 N.L N.V)``,
   fitted with ``kd = (1 - w) R`` and ``ks = w`` per channel (``kd + ks <= 1``);
   ``amount`` is one number, so ``w`` is the largest ``ks`` and a coloured specular
@@ -41,6 +44,10 @@ dielectric (black glossy plastic, paint, glass on black) reflects only
 ``FrDielectric`` for ``eta >= 1``) and a ``coateddiffuse`` with ``reflectance 0``
 (a black base absorbs what the coat transmits); the conductor fit reaches it, and
 being the simpler it is written.
+
+pbrt renders spectrally: an ``rgb`` reflectance becomes a smooth spectrum
+(``RGBAlbedoSpectrum``), so an RGB render shows approximately, not exactly, the
+per-channel values evaluated here.
 """
 
 from __future__ import annotations
