@@ -42,7 +42,7 @@ TARGETS = {
     "mitsuba-xml": "Mitsuba 3 XML <bsdf> fragment (the same BSDF)",
     "gltf": "glTF 2.0 asset with one metallic-roughness material (+ KHR_materials_anisotropy)",
     "openpbr": "MaterialX document with an open_pbr_surface (OpenPBR's BRDF fitted)",
-    "pbrt": "pbrt-v4 material statements (mix of diffuse and conductor)",
+    "pbrt": "pbrt-v4 material statement (conductor, coateddiffuse or mix, the closest)",
     "blender": "Blender 4 Principled BSDF (GGX) inputs and a Python snippet (its BRDF fitted)",
 }
 
@@ -91,8 +91,8 @@ def _via_pbrt(material: Material, data) -> Export:
     error = conversion_error(material, evaluate, native_albedo(native), data)
     notes = (
         *notes,
-        "pbrt's mix of diffuse and conductor, fitted and evaluated here from pbrt-v4's "
-        "formulas (height-correlated G, exact Fresnel); roughness is alpha "
+        "fitted and evaluated here from pbrt-v4's formulas (height-correlated G, exact "
+        "Fresnel; coateddiffuse: the expectation of its random walk); roughness is alpha "
         "(remaproughness false).",
     )
     return Export(pbrt_statement(q), "pbrt", q, {**error, "exact": False}, notes, native, "pbrt")
