@@ -35,12 +35,8 @@ class _Lobe:
         self.loop, self.prepare, self.shape = loop, prepare, shape
 
     def run(self, geometry, shape: Mapping, a: float, b: float) -> np.ndarray:
-        loops = _loops()
-        extra = (loops.SMITH_TABLE,) if self.loop == "beckmann" else ()
         out = np.empty(geometry.m)
-        return getattr(loops, self.loop)(
-            *self.prepare(geometry), *self.shape(shape), a, b, *extra, out
-        )
+        return getattr(_loops(), self.loop)(*self.prepare(geometry), *self.shape(shape), a, b, out)
 
     def design(self, geometry, shape: Mapping) -> Design:
         return Design((INV_PI, self.run(geometry, shape, 1.0, 0.0)))

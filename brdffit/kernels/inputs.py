@@ -19,6 +19,7 @@ from ..data.geometry import MIN_COSINE, Geometry
 from ..models.shared import schlick_weight, vcavity_g
 
 __all__ = [
+    "COT_MAX",
     "ashikhmin_shirley_inputs",
     "beckmann_inputs",
     "blinn_inputs",
@@ -27,6 +28,10 @@ __all__ = [
     "ward_anisotropic_inputs",
     "ward_inputs",
 ]
+
+#: The largest ``1 / tan`` of the inputs: finite, so that ``cot / alpha`` (alpha >=
+#: 1e-3) stays finite; every ``a = cot / alpha`` over 4.5 gives the same ``G1``.
+COT_MAX = 1e100
 
 
 def _tan2_of(w: np.ndarray, cos: np.ndarray) -> np.ndarray:
@@ -57,13 +62,21 @@ def microfacet_inputs(g: Geometry) -> tuple:
     return g.cached("kernels.microfacet", compute)
 
 
+def _cot_of(tan2: np.ndarray) -> np.ndarray:
+    """``1 / tan`` of a polar angle, at most :data:`COT_MAX` (the normal's is infinite)."""
+    with np.errstate(divide="ignore"):
+        cot = 1.0 / np.sqrt(tan2)
+    return np.minimum(cot, COT_MAX, out=cot)
+
+
 def beckmann_inputs(g: Geometry) -> tuple:
-    """As :func:`microfacet_inputs`, with the logarithm of the factor (it is added to
-    the exponent of Beckmann's ``D``)."""
+    """As :func:`microfacet_inputs`, with ``1 / tan`` of L and V in place of their
+    ``tan^2`` (Smith's ``a = 1 / (alpha tan)``) and the logarithm of the factor (it is
+    added to the exponent of Beckmann's ``D``)."""
 
     def compute():
         tan2_h, tan2_i, tan2_o, factor, weight = microfacet_inputs(g)
-        return tan2_h, tan2_i, tan2_o, np.log(factor), weight
+        return tan2_h, _cot_of(tan2_i), _cot_of(tan2_o), np.log(factor), weight
 
     return g.cached("kernels.beckmann", compute)
 

@@ -12,7 +12,8 @@ those of the numpy models (MODELS.md), whose docstrings cite the primary sources
 
 - GGX ``D`` and Smith ``G1`` (Walter, Marschner, Li and Torrance, Microfacet
   models for refraction through rough surfaces, EGSR 2007, eqs. 33-34), Beckmann
-  ``D`` and its exact Smith ``G1`` (ibid., and Heitz, JCGT 3(2), 2014, section 5.1);
+  ``D`` and its Smith ``G1`` (ibid., and Heitz, JCGT 3(2), 2014, section 5.1; a
+  rational function within 1e-12 of the exact one, :mod:`brdffit.kernels.smith`);
 - Ward's isotropic and anisotropic lobes (Ward, SIGGRAPH 1992, eq. 5a);
 - Cook-Torrance with V-cavity shadowing and the dielectric Fresnel term (Cook and
   Torrance, ACM TOG 1(1), 1982);
@@ -28,8 +29,7 @@ import numba
 import numpy as np
 
 from ._compile import FLAGS, fast_exp, jit
-from .smith import A_MAX, WIDTH
-from .smith import table as smith_table
+from .smith import A_MAX, P, Q
 
 _INV_PI = 1.0 / math.pi
 
@@ -50,43 +50,39 @@ def ggx(tan2_h, tan2_i, tan2_o, factor, weight, alpha2, f0, a, b, out):
 
 
 @numba.njit(inline="always", fastmath=FLAGS)
-def beckmann_g1(t, coefficients):
-    """Exact Smith masking of Beckmann for ``t = alpha^2 tan^2``, ``a = 1/sqrt(t)``:
-    1 for ``a >= 6`` (``Lambda < 3e-18``), else ``a q(a)`` from the polynomial table
-    of :mod:`brdffit.kernels.smith` (no library call, so the loop vectorises)."""
-    a = 1.0 / math.sqrt(max(t, 1e-300))
-    j = int(min(a, A_MAX - WIDTH / 2) * (1.0 / WIDTH))
-    x = (a - j * WIDTH) * (2.0 / WIDTH) - 1.0
-    k = j * 11  # the row of interval j in the flat table; Horner written out
-    q = coefficients[k + 10] * x + coefficients[k + 9]
-    q = q * x + coefficients[k + 8]
-    q = q * x + coefficients[k + 7]
-    q = q * x + coefficients[k + 6]
-    q = q * x + coefficients[k + 5]
-    q = q * x + coefficients[k + 4]
-    q = q * x + coefficients[k + 3]
-    q = q * x + coefficients[k + 2]
-    q = q * x + coefficients[k + 1]
-    q = q * x + coefficients[k + 0]
-    return 1.0 if a >= A_MAX else a * q
+def _beckmann_g1_terms(a):
+    """``(a Q(x), a Q(x) + P(x))`` of :mod:`brdffit.kernels.smith`, whose ratio is
+    Beckmann's Smith ``G1`` at ``a = 1/(alpha tan theta) <= A_MAX``: no library call
+    and no table, so the loop vectorises."""
+    x = a * (2.0 / A_MAX) - 1.0
+    q = Q[0]
+    for k in range(1, len(Q)):  # Horner; the tuples are constants, the loops unrolled
+        q = q * x + Q[k]
+    p = P[0]
+    for k in range(1, len(P)):
+        p = p * x + P[k]
+    n = a * q
+    return n, n + p
 
 
 @jit
-def beckmann(tan2_h, tan2_i, tan2_o, log_factor, weight, alpha2, f0, a, b, coefficients, out):
-    """Beckmann ``D`` with its exact Smith ``G1`` and Schlick's F. ``log_factor`` is
-    ``ln(1 / (4 (N.L)(N.V) (N.H)^4))``, added to the exponent of ``D``."""
+def beckmann(tan2_h, cot_i, cot_o, log_factor, weight, alpha2, f0, a, b, out):
+    """Beckmann ``D`` with its Smith ``G1`` (:mod:`brdffit.kernels.smith`) and
+    Schlick's F. ``cot_i``, ``cot_o`` are ``1/tan`` of L and V (so ``a = cot/alpha``
+    needs no division), ``log_factor`` is ``ln(1 / (4 (N.L)(N.V) (N.H)^4))``, added
+    to the exponent of ``D``; one division per pair for both ``G1``."""
     if a <= 0.0:
         out[:] = b
         return out
     inv_a2 = 1.0 / alpha2
+    inv_alpha = math.sqrt(inv_a2)
     log_scale = math.log(a * _INV_PI * inv_a2)
     for i in range(out.shape[0]):
         fresnel = f0 + (1.0 - f0) * weight[i]
-        g = beckmann_g1(alpha2 * tan2_i[i], coefficients) * beckmann_g1(
-            alpha2 * tan2_o[i], coefficients
-        )
+        n_i, d_i = _beckmann_g1_terms(min(cot_i[i] * inv_alpha, A_MAX))
+        n_o, d_o = _beckmann_g1_terms(min(cot_o[i] * inv_alpha, A_MAX))
         lobe = fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_a2)
-        out[i] = b + fresnel * g * lobe
+        out[i] = b + fresnel * lobe * (n_i * n_o) / (d_i * d_o)
     return out
 
 
@@ -179,10 +175,6 @@ def ashikhmin_shirley(log_t, log_b, log_scale, weight, diffuse, nu, nv, rd_eff, 
         s = fast_exp(log_norm + log_scale[i] + nu * log_t[i] + nv * log_b[i])
         out[i] = rd_eff * diffuse[i] + s * (rs + (1.0 - rs) * weight[i])
     return out
-
-
-#: Beckmann's Smith masking over a = 1/(alpha tan theta), see brdffit.kernels.smith.
-SMITH_TABLE = smith_table().ravel()
 
 
 @numba.njit(cache=True, fastmath=True, error_model="numpy")
