@@ -112,4 +112,6 @@ COMPILED_MODELS = (
     "blinn",
     "ward_anisotropic",
     "ashikhmin_shirley",
+    "ggx_anisotropic",
+    "beckmann_anisotropic",
 )

@@ -78,6 +78,10 @@ def _alpha2(name: str, second: str | None = None) -> Callable:
     return lambda s: (float(s[name]) ** 2, float(s[second]))
 
 
+def _anisotropic(u: str, v: str) -> Callable:
+    return lambda s: (float(s[u]), float(s[v]), float(s["f0"]))
+
+
 #: Model name -> its compiled form.
 SPECS = {
     "ggx": _Lobe("ggx", inputs.microfacet_inputs, _alpha2("alpha", "f0")),
@@ -91,6 +95,14 @@ SPECS = {
         lambda s: (float(s["alpha_x"]), float(s["alpha_y"])),
     ),
     "ashikhmin_shirley": _AshikhminShirley(),
+    "ggx_anisotropic": _Lobe(
+        "ggx_anisotropic", inputs.ggx_anisotropic_inputs, _anisotropic("alpha_u", "alpha_v")
+    ),
+    "beckmann_anisotropic": _Lobe(
+        "beckmann_anisotropic",
+        inputs.beckmann_anisotropic_inputs,
+        _anisotropic("alpha_u", "alpha_v"),
+    ),
 }
 
 

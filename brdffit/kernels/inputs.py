@@ -21,9 +21,11 @@ from ..models.shared import schlick_weight, vcavity_g
 __all__ = [
     "COT_MAX",
     "ashikhmin_shirley_inputs",
+    "beckmann_anisotropic_inputs",
     "beckmann_inputs",
     "blinn_inputs",
     "cook_torrance_inputs",
+    "ggx_anisotropic_inputs",
     "microfacet_inputs",
     "ward_anisotropic_inputs",
     "ward_inputs",
@@ -79,6 +81,39 @@ def beckmann_inputs(g: Geometry) -> tuple:
         return tan2_h, _cot_of(tan2_i), _cot_of(tan2_o), np.log(factor), weight
 
     return g.cached("kernels.beckmann", compute)
+
+
+def _tan2_axes_of(w: np.ndarray, cos: np.ndarray) -> tuple:
+    """``(x/z)^2`` and ``(y/z)^2`` of a direction (of H: ``(H.T/N.H)^2``, ``(H.B/N.H)^2``,
+    which sum to ``tan^2``), so that ``alpha^2 tan^2`` of Smith's anisotropic ``G1``
+    is ``alpha_u^2 (x/z)^2 + alpha_v^2 (y/z)^2`` (Heitz 2014, section 5.4)."""
+    inv_c2 = 1.0 / (cos * cos)
+    return w[:, 0] ** 2 * inv_c2, w[:, 1] ** 2 * inv_c2
+
+
+def _anisotropic_axes(g: Geometry) -> tuple:
+    """:func:`_tan2_axes_of` of H, L and V: six arrays."""
+
+    def compute():
+        return (
+            *_tan2_axes_of(g.half, g.cos_h),
+            *_tan2_axes_of(g.wi, g.cos_i),
+            *_tan2_axes_of(g.wo, g.cos_o),
+        )
+
+    return g.cached("kernels.anisotropic_axes", compute)
+
+
+def ggx_anisotropic_inputs(g: Geometry) -> tuple:
+    """Anisotropic GGX: :func:`_anisotropic_axes`, then as :func:`microfacet_inputs`
+    ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's ``(1 - V.H)^5``."""
+    return (*_anisotropic_axes(g), *microfacet_inputs(g)[3:])
+
+
+def beckmann_anisotropic_inputs(g: Geometry) -> tuple:
+    """Anisotropic Beckmann: :func:`_anisotropic_axes`, then as
+    :func:`beckmann_inputs` the logarithm of the factor and Schlick's weight."""
+    return (*_anisotropic_axes(g), *beckmann_inputs(g)[3:])
 
 
 def ward_inputs(g: Geometry) -> tuple:

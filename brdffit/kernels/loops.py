@@ -87,6 +87,54 @@ def beckmann(tan2_h, cot_i, cot_o, log_factor, weight, alpha2, f0, a, b, out):
 
 
 @jit
+def ggx_anisotropic(
+    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, weight, alpha_u, alpha_v, f0, a, b, out
+):
+    """Anisotropic GGX (Heitz 2014, section 5.4): ``D = 1 / (pi alpha_u alpha_v (N.H)^4
+    t^2)``, ``t = 1 + tan2_t/alpha_u^2 + tan2_b/alpha_v^2``, and Smith ``G1 = 2 / (1 +
+    sqrt(1 + alpha_u^2 tx + alpha_v^2 ty))`` of L and of V; ``factor`` as in :func:`ggx`."""
+    inv_u2, inv_v2 = 1.0 / (alpha_u * alpha_u), 1.0 / (alpha_v * alpha_v)
+    u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
+    scale = 4.0 * a * _INV_PI / (alpha_u * alpha_v)
+    for i in range(out.shape[0]):
+        t = 1.0 + tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2
+        g = (1.0 + math.sqrt(1.0 + u2 * tx_i[i] + v2 * ty_i[i])) * (
+            1.0 + math.sqrt(1.0 + u2 * tx_o[i] + v2 * ty_o[i])
+        )
+        fresnel = f0 + (1.0 - f0) * weight[i]
+        out[i] = b + scale * factor[i] * fresnel / (t * t * g)
+    return out
+
+
+@jit
+def beckmann_anisotropic(
+    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, log_factor, weight, alpha_u, alpha_v, f0, a, b, out
+):
+    """Anisotropic Beckmann (Heitz 2014, section 5.4): ``D = exp(-(tan2_t/alpha_u^2 +
+    tan2_b/alpha_v^2)) / (pi alpha_u alpha_v (N.H)^4)`` and the Smith ``G1`` of
+    :func:`beckmann` at ``a = 1 / sqrt(alpha_u^2 tx + alpha_v^2 ty)``; ``log_factor``
+    as in :func:`beckmann`. ``1/sqrt(s_L)`` and ``1/sqrt(s_V)`` share one division."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_u2, inv_v2 = 1.0 / (alpha_u * alpha_u), 1.0 / (alpha_v * alpha_v)
+    u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
+    log_scale = math.log(a * _INV_PI / (alpha_u * alpha_v))
+    for i in range(out.shape[0]):
+        # s = (alpha tan)^2 = 1/a^2; at most 1e20 (grazing), at least 1e-100 (the
+        # normal's 0), so that their product neither overflows nor underflows
+        s_i = max(u2 * tx_i[i] + v2 * ty_i[i], 1e-100)
+        s_o = max(u2 * tx_o[i] + v2 * ty_o[i], 1e-100)
+        r = 1.0 / (s_i * s_o)
+        n_i, d_i = _beckmann_g1_terms(min(math.sqrt(s_o * r), A_MAX))
+        n_o, d_o = _beckmann_g1_terms(min(math.sqrt(s_i * r), A_MAX))
+        fresnel = f0 + (1.0 - f0) * weight[i]
+        exponent = log_scale + log_factor[i] - (tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2)
+        out[i] = b + fresnel * fast_exp(exponent) * (n_i * n_o) / (d_i * d_o)
+    return out
+
+
+@jit
 def ward(tan2_h, log_factor, alpha2, a, b, out):
     """``exp(-tan^2/alpha^2) / (4 pi alpha^2 sqrt((N.L)(N.V)))``; ``log_factor`` is
     ``ln(1 / (4 pi sqrt((N.L)(N.V))))``."""
