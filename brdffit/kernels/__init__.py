@@ -114,4 +114,6 @@ COMPILED_MODELS = (
     "ashikhmin_shirley",
     "ggx_anisotropic",
     "beckmann_anisotropic",
+    "cook_torrance_schlick",
+    "torrance_sparrow",
 )

@@ -88,6 +88,12 @@ SPECS = {
     "beckmann": _Lobe("beckmann", inputs.beckmann_inputs, _alpha2("alpha", "f0")),
     "ward": _Lobe("ward", inputs.ward_inputs, _alpha2("alpha")),
     "cook_torrance": _Lobe("cook_torrance", inputs.cook_torrance_inputs, _alpha2("m", "eta")),
+    "cook_torrance_schlick": _Lobe(
+        "cook_torrance_schlick", inputs.cook_torrance_schlick_inputs, _alpha2("m", "f0")
+    ),
+    "torrance_sparrow": _Lobe(
+        "torrance_sparrow", inputs.torrance_sparrow_inputs, _alpha2("m", "eta")
+    ),
     "blinn": _Lobe("blinn", inputs.blinn_inputs, lambda s: (float(s["n"]),)),
     "ward_anisotropic": _Lobe(
         "ward_anisotropic",

@@ -25,8 +25,10 @@ __all__ = [
     "beckmann_inputs",
     "blinn_inputs",
     "cook_torrance_inputs",
+    "cook_torrance_schlick_inputs",
     "ggx_anisotropic_inputs",
     "microfacet_inputs",
+    "torrance_sparrow_inputs",
     "ward_anisotropic_inputs",
     "ward_inputs",
 ]
@@ -132,6 +134,23 @@ def cook_torrance_inputs(g: Geometry) -> tuple:
         return g.tan2_h, np.log(factor), np.maximum(g.cos_d, 1e-300)
 
     return g.cached("kernels.cook_torrance", compute)
+
+
+def cook_torrance_schlick_inputs(g: Geometry) -> tuple:
+    """As :func:`cook_torrance_inputs`, with Schlick's ``(1 - V.H)^5`` for ``V.H``."""
+    return (*cook_torrance_inputs(g)[:2], microfacet_inputs(g)[4])
+
+
+def torrance_sparrow_inputs(g: Geometry) -> tuple:
+    """Torrance-Sparrow: ``theta_h^2``, ``ln(G / (4 (N.L)(N.V)))`` with the V-cavity
+    ``G`` and ``V.H``."""
+
+    def compute():
+        shadowing = vcavity_g(g.cos_h, g.cos_i, g.cos_o, g.cos_d)
+        factor = shadowing / (4.0 * g.cos_i * g.cos_o)
+        return g.theta_h**2, np.log(factor), np.maximum(g.cos_d, 1e-300)
+
+    return g.cached("kernels.torrance_sparrow", compute)
 
 
 def blinn_inputs(g: Geometry) -> tuple:

@@ -15,8 +15,9 @@ those of the numpy models (MODELS.md), whose docstrings cite the primary sources
   ``D`` and its Smith ``G1`` (ibid., and Heitz, JCGT 3(2), 2014, section 5.1; a
   rational function within 1e-12 of the exact one, :mod:`brdffit.kernels.smith`);
 - Ward's isotropic and anisotropic lobes (Ward, SIGGRAPH 1992, eq. 5a);
-- Cook-Torrance with V-cavity shadowing and the dielectric Fresnel term (Cook and
-  Torrance, ACM TOG 1(1), 1982);
+- Cook-Torrance with V-cavity shadowing and the dielectric Fresnel term or Schlick's
+  (Cook and Torrance, ACM TOG 1(1), 1982), Torrance-Sparrow's Gaussian in the angle
+  (Torrance and Sparrow, JOSA 57(9), 1967);
 - Blinn's ``(N.H)^n`` (Blinn, SIGGRAPH 1977);
 - Ashikhmin-Shirley (Ashikhmin and Shirley, JGT 5(2), 2000, eqs. 4-5).
 """
@@ -148,14 +149,24 @@ def ward(tan2_h, log_factor, alpha2, a, b, out):
     return out
 
 
+@numba.njit(inline="always", fastmath=FLAGS)
+def _twice_fresnel_dielectric(c, e2):
+    """``Rs + Rp`` (twice the unpolarised dielectric Fresnel factor) at ``c = V.H > 0``,
+    ``e2 = eta^2``: ``g = sqrt(max(0, eta^2 - 1 + c^2))``, ``Rs = ((c - g)/(c + g))^2``
+    and ``Rp = ((eta^2 c - g)/(eta^2 c + g))^2``
+    (:func:`brdffit.models.shared.fresnel_dielectric`), over one common denominator:
+    one division instead of three."""
+    g = math.sqrt(max(c * c + (e2 - 1.0), 0.0))
+    s_num, s_den = (c - g) * (e2 * c + g), (c + g) * (e2 * c + g)
+    p_num = (e2 * c - g) * (c + g)
+    den = s_den * s_den  # > 0: V.H >= (N.L + N.V)/2 > 0 for valid pairs
+    return (s_num * s_num + p_num * p_num) / den if den > 0.0 else 2.0
+
+
 @jit
 def cook_torrance(tan2_h, log_factor, cos_d, m2, eta, a, b, out):
     """Beckmann ``D``, V-cavity ``G`` (in ``log_factor``, the logarithm of
-    ``G / (4 pi (N.L)(N.V) (N.H)^4)``) and the exact dielectric Fresnel factor
-    ``(Rs + Rp) / 2`` with ``g = sqrt(max(0, eta^2 - 1 + c^2))``,
-    ``Rs = ((c - g)/(c + g))^2`` and ``Rp = ((eta^2 c - g)/(eta^2 c + g))^2``
-    (:func:`brdffit.models.shared.fresnel_dielectric`), over one common denominator:
-    one division per pair instead of three."""
+    ``G / (4 pi (N.L)(N.V) (N.H)^4)``) and the exact dielectric Fresnel factor."""
     if a <= 0.0:
         out[:] = b
         return out
@@ -163,13 +174,38 @@ def cook_torrance(tan2_h, log_factor, cos_d, m2, eta, a, b, out):
     e2 = eta * eta
     log_scale = math.log(0.5 * a * inv_m2)
     for i in range(out.shape[0]):
-        c = cos_d[i]
-        g = math.sqrt(max(c * c + (e2 - 1.0), 0.0))
-        s_num, s_den = (c - g) * (e2 * c + g), (c + g) * (e2 * c + g)
-        p_num = (e2 * c - g) * (c + g)
-        den = s_den * s_den  # > 0: V.H >= (N.L + N.V)/2 > 0 for valid pairs
-        fresnel = (s_num * s_num + p_num * p_num) / den if den > 0.0 else 2.0
+        fresnel = _twice_fresnel_dielectric(cos_d[i], e2)
         out[i] = b + fresnel * fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_m2)
+    return out
+
+
+@jit
+def cook_torrance_schlick(tan2_h, log_factor, weight, m2, f0, a, b, out):
+    """:func:`cook_torrance` with Schlick's ``F = f0 + (1 - f0) weight``."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_m2 = 1.0 / m2
+    log_scale = math.log(a * inv_m2)
+    for i in range(out.shape[0]):
+        fresnel = f0 + (1.0 - f0) * weight[i]
+        out[i] = b + fresnel * fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_m2)
+    return out
+
+
+@jit
+def torrance_sparrow(theta2_h, log_factor, cos_d, m2, eta, a, b, out):
+    """Torrance-Sparrow: ``exp(-theta_h^2/m^2)``, V-cavity ``G`` (in ``log_factor``, the
+    logarithm of ``G / (4 (N.L)(N.V))``) and the exact dielectric Fresnel factor."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_m2 = 1.0 / m2
+    e2 = eta * eta
+    log_scale = math.log(0.5 * a)
+    for i in range(out.shape[0]):
+        fresnel = _twice_fresnel_dielectric(cos_d[i], e2)
+        out[i] = b + fresnel * fast_exp(log_scale + log_factor[i] - theta2_h[i] * inv_m2)
     return out
 
 
