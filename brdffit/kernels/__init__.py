@@ -116,4 +116,7 @@ COMPILED_MODELS = (
     "beckmann_anisotropic",
     "cook_torrance_schlick",
     "torrance_sparrow",
+    "phong",
+    "phong_normalized",
+    "blinn_normalized",
 )

@@ -11,6 +11,7 @@ design (``reference``).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 
 import numpy as np
@@ -78,6 +79,13 @@ def _alpha2(name: str, second: str | None = None) -> Callable:
     return lambda s: (float(s[name]) ** 2, float(s[second]))
 
 
+def _power(k: float | None) -> Callable:
+    """The exponent ``n`` and the factor of a power lobe: 1, or ``(n + k)/(k pi)``."""
+    if k is None:
+        return lambda s: (float(s["n"]), 1.0)
+    return lambda s: (float(s["n"]), (float(s["n"]) + k) / (k * math.pi))
+
+
 def _anisotropic(u: str, v: str) -> Callable:
     return lambda s: (float(s[u]), float(s[v]), float(s["f0"]))
 
@@ -95,6 +103,9 @@ SPECS = {
         "torrance_sparrow", inputs.torrance_sparrow_inputs, _alpha2("m", "eta")
     ),
     "blinn": _Lobe("blinn", inputs.blinn_inputs, lambda s: (float(s["n"]),)),
+    "blinn_normalized": _Lobe("power", inputs.blinn_inputs, _power(8.0)),
+    "phong": _Lobe("power", inputs.phong_inputs, _power(None)),
+    "phong_normalized": _Lobe("power", inputs.phong_inputs, _power(2.0)),
     "ward_anisotropic": _Lobe(
         "ward_anisotropic",
         inputs.ward_anisotropic_inputs,

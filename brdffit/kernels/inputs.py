@@ -28,6 +28,7 @@ __all__ = [
     "cook_torrance_schlick_inputs",
     "ggx_anisotropic_inputs",
     "microfacet_inputs",
+    "phong_inputs",
     "torrance_sparrow_inputs",
     "ward_anisotropic_inputs",
     "ward_inputs",
@@ -156,6 +157,17 @@ def torrance_sparrow_inputs(g: Geometry) -> tuple:
 def blinn_inputs(g: Geometry) -> tuple:
     """Blinn: ``ln(N.H)``, so that ``(N.H)^n = exp(n ln(N.H))``."""
     return (g.log_cos_h,)
+
+
+def phong_inputs(g: Geometry) -> tuple:
+    """Phong: ``ln(max(0, R.V))``, with -1e300 for ``ln 0`` (finite for the loop)."""
+
+    def compute():
+        with np.errstate(divide="ignore"):
+            log_cos_r = np.log(np.maximum(g.cos_r, 0.0))
+        return (np.maximum(log_cos_r, -1e300, out=log_cos_r),)
+
+    return g.cached("kernels.phong", compute)
 
 
 def ward_anisotropic_inputs(g: Geometry) -> tuple:

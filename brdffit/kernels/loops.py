@@ -18,7 +18,10 @@ those of the numpy models (MODELS.md), whose docstrings cite the primary sources
 - Cook-Torrance with V-cavity shadowing and the dielectric Fresnel term or Schlick's
   (Cook and Torrance, ACM TOG 1(1), 1982), Torrance-Sparrow's Gaussian in the angle
   (Torrance and Sparrow, JOSA 57(9), 1967);
-- Blinn's ``(N.H)^n`` (Blinn, SIGGRAPH 1977);
+- Blinn's ``(N.H)^n`` (Blinn, SIGGRAPH 1977), Phong's ``max(0, R.V)^n`` (Phong,
+  CACM 18(6), 1975) and their normalised forms (``(n+8)/(8 pi)``: Akenine-Moller,
+  Haines and Hoffman, Real-Time Rendering, 3rd ed., 2008; ``(n+2)/(2 pi)``: Lewis,
+  Computer Graphics Forum 13(2), 1994);
 - Ashikhmin-Shirley (Ashikhmin and Shirley, JGT 5(2), 2000, eqs. 4-5).
 """
 
@@ -218,6 +221,20 @@ def blinn(log_cos_h, n, a, b, out):
     log_a = math.log(a)
     for i in range(out.shape[0]):
         out[i] = b + fast_exp(n * log_cos_h[i] + log_a)
+    return out
+
+
+@jit
+def power(log_base, n, factor, a, b, out):
+    """``factor base^n = exp(n ln(base) + ln(factor))``: Phong's ``max(0, R.V)^n`` and the
+    energy-normalised Phong and Blinn lobes (``log_base`` finite: ``ln 0`` is stored as
+    -1e300, whose ``n``-th multiple is flushed to 0 as numpy's ``exp(-inf)`` is 0)."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a * factor)
+    for i in range(out.shape[0]):
+        out[i] = b + fast_exp(n * log_base[i] + log_a)
     return out
 
 
