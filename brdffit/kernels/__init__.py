@@ -119,4 +119,5 @@ COMPILED_MODELS = (
     "phong",
     "phong_normalized",
     "blinn_normalized",
+    "ashikhmin_phong",
 )

@@ -112,6 +112,11 @@ SPECS = {
         lambda s: (float(s["alpha_x"]), float(s["alpha_y"])),
     ),
     "ashikhmin_shirley": _AshikhminShirley(),
+    "ashikhmin_phong": _Lobe(
+        "ashikhmin_phong",
+        inputs.ashikhmin_phong_inputs,
+        lambda s: (float(s["nu"]), float(s["nv"])),
+    ),
     "ggx_anisotropic": _Lobe(
         "ggx_anisotropic", inputs.ggx_anisotropic_inputs, _anisotropic("alpha_u", "alpha_v")
     ),

@@ -19,6 +19,7 @@ from ..data.geometry import MIN_COSINE, Geometry
 from ..models.shared import schlick_weight, vcavity_g
 
 __all__ = [
+    "ashikhmin_phong_inputs",
     "COT_MAX",
     "ashikhmin_shirley_inputs",
     "beckmann_anisotropic_inputs",
@@ -180,6 +181,12 @@ def ward_anisotropic_inputs(g: Geometry) -> tuple:
         return h[:, 0] ** 2 * inv_c2, h[:, 1] ** 2 * inv_c2, np.log(_ward_factor(g))
 
     return g.cached("kernels.ward_anisotropic", compute)
+
+
+def ashikhmin_phong_inputs(g: Geometry) -> tuple:
+    """Ashikhmin's anisotropic Phong lobe: ``cos^2(phi_h) ln(N.H)``, ``sin^2(phi_h)
+    ln(N.H)`` (those of :func:`ashikhmin_shirley_inputs`)."""
+    return ashikhmin_shirley_inputs(g)[:2]
 
 
 def ashikhmin_shirley_inputs(g: Geometry) -> tuple:

@@ -255,6 +255,20 @@ def ward_anisotropic(tan2_t, tan2_b, log_factor, alpha_x, alpha_y, a, b, out):
 
 
 @jit
+def ashikhmin_phong(log_t, log_b, nu, nv, a, b, out):
+    """Ashikhmin's anisotropic Phong lobe ``sqrt((nu+1)(nv+1))/(2 pi)
+    (N.H)^(nu cos^2 phi_h + nv sin^2 phi_h)`` (Ashikhmin and Shirley, JGT 5(2), 2000,
+    eq. 4), ``log_t``, ``log_b`` as in :func:`ashikhmin_shirley_columns`."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_norm = math.log(a * math.sqrt((nu + 1.0) * (nv + 1.0)) * (0.5 * _INV_PI))
+    for i in range(out.shape[0]):
+        out[i] = b + fast_exp(log_norm + nu * log_t[i] + nv * log_b[i])
+    return out
+
+
+@jit
 def ashikhmin_shirley_columns(log_t, log_b, log_scale, weight, nu, nv, column, offset):
     """Ashikhmin-Shirley's specular column ``S (1 - w)`` and offset ``S w`` with
     ``S = sqrt((nu+1)(nv+1)) (N.H)^(nu cos^2 phi_h + nv sin^2 phi_h) / (8 pi (V.H)
