@@ -99,8 +99,8 @@ def _d_anisotropic(geometry: Geometry, distribution: str, alpha_u: float, alpha_
     - 1/alpha_v^2) + 1/alpha_v^2`` cancels: measured, exponents of 200-600 wrong by
     3e-11 at alpha_v = 0.003.)"""
     along_t, along_b = _tan2_axes_h(geometry)
-    e = along_t * (1.0 / (alpha_u * alpha_u))
-    e += along_b * (1.0 / (alpha_v * alpha_v))
+    # not in place: alpha_u and alpha_v may be (W, 1) arrays of walkers, or one of them
+    e = along_t * (1.0 / (alpha_u * alpha_u)) + along_b * (1.0 / (alpha_v * alpha_v))
     if distribution == "ggx":
         e += 1.0
         e *= geometry.cos_h
