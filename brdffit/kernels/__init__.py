@@ -120,4 +120,7 @@ COMPILED_MODELS = (
     "phong_normalized",
     "blinn_normalized",
     "ashikhmin_phong",
+    "heidrich_seidel",
+    "schlick",
+    "wang",
 )

@@ -106,6 +106,9 @@ SPECS = {
     "blinn_normalized": _Lobe("power", inputs.blinn_inputs, _power(8.0)),
     "phong": _Lobe("power", inputs.phong_inputs, _power(None)),
     "phong_normalized": _Lobe("power", inputs.phong_inputs, _power(2.0)),
+    "heidrich_seidel": _Lobe("power", inputs.heidrich_seidel_inputs, _power(None)),
+    "schlick": _Lobe("schlick", inputs.schlick_inputs, lambda s: (float(s["n"]),)),
+    "wang": _Lobe("wang", inputs.wang_inputs, lambda s: (float(s["m"]), float(s["zeta"]))),
     "ward_anisotropic": _Lobe(
         "ward_anisotropic",
         inputs.ward_anisotropic_inputs,

@@ -27,10 +27,13 @@ __all__ = [
     "blinn_inputs",
     "cook_torrance_inputs",
     "cook_torrance_schlick_inputs",
+    "heidrich_seidel_inputs",
     "ggx_anisotropic_inputs",
     "microfacet_inputs",
     "phong_inputs",
+    "schlick_inputs",
     "torrance_sparrow_inputs",
+    "wang_inputs",
     "ward_anisotropic_inputs",
     "ward_inputs",
 ]
@@ -169,6 +172,31 @@ def phong_inputs(g: Geometry) -> tuple:
         return (np.maximum(log_cos_r, -1e300, out=log_cos_r),)
 
     return g.cached("kernels.phong", compute)
+
+
+def heidrich_seidel_inputs(g: Geometry) -> tuple:
+    """Heidrich-Seidel: ``ln(sqrt(1-(L.T)^2) sqrt(1-(V.T)^2) - (L.T)(V.T))`` as in
+    :mod:`brdffit.models.anisotropic_shapes`, with -1e300 for ``ln`` of a base <= 0."""
+
+    def compute():
+        lt, vt = g.wi[:, 0], g.wo[:, 0]
+        base = np.sqrt(np.maximum(1.0 - lt * lt, 0.0)) * np.sqrt(np.maximum(1.0 - vt * vt, 0.0))
+        base -= lt * vt
+        out = np.full(g.m, -1e300)
+        np.log(base, out=out, where=base > 0)
+        return (out,)
+
+    return g.cached("kernels.heidrich_seidel", compute)
+
+
+def schlick_inputs(g: Geometry) -> tuple:
+    """Schlick's lobe: ``N.H`` and ``1 - N.H = sin^2(theta_h) / (1 + N.H)``."""
+    return g.cos_h, g.cached("kernels.schlick", lambda: g.sin2_h / (1.0 + g.cos_h))
+
+
+def wang_inputs(g: Geometry) -> tuple:
+    """Wang: ``ln(N.H)`` and ``cos^2(phi_h)``."""
+    return g.log_cos_h, g.cos2_phi_h
 
 
 def ward_anisotropic_inputs(g: Geometry) -> tuple:
