@@ -123,4 +123,5 @@ COMPILED_MODELS = (
     "heidrich_seidel",
     "schlick",
     "wang",
+    "blake",
 )

@@ -17,6 +17,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from ..models.base import INV_PI, Design
+from ..models.empirical import blake_bounds
 from . import inputs
 
 __all__ = ["CompiledDesign", "SPECS"]
@@ -108,6 +109,7 @@ SPECS = {
     "phong_normalized": _Lobe("power", inputs.phong_inputs, _power(2.0)),
     "heidrich_seidel": _Lobe("power", inputs.heidrich_seidel_inputs, _power(None)),
     "schlick": _Lobe("schlick", inputs.schlick_inputs, lambda s: (float(s["n"]),)),
+    "blake": _Lobe("blake", inputs.blake_inputs, lambda s: blake_bounds(float(s["n"]))),
     "wang": _Lobe("wang", inputs.wang_inputs, lambda s: (float(s["m"]), float(s["zeta"]))),
     "ward_anisotropic": _Lobe(
         "ward_anisotropic",

@@ -24,6 +24,7 @@ __all__ = [
     "ashikhmin_shirley_inputs",
     "beckmann_anisotropic_inputs",
     "beckmann_inputs",
+    "blake_inputs",
     "blinn_inputs",
     "cook_torrance_inputs",
     "cook_torrance_schlick_inputs",
@@ -156,6 +157,11 @@ def torrance_sparrow_inputs(g: Geometry) -> tuple:
         return g.theta_h**2, np.log(factor), np.maximum(g.cos_d, 1e-300)
 
     return g.cached("kernels.torrance_sparrow", compute)
+
+
+def blake_inputs(g: Geometry) -> tuple:
+    """Blake: ``theta_h`` and ``theta_h^2``."""
+    return g.theta_h, g.cached("kernels.theta_h2", lambda: g.theta_h**2)
 
 
 def blinn_inputs(g: Geometry) -> tuple:

@@ -267,6 +267,22 @@ def wang(log_cos_h, cos2_phi_h, m, zeta, a, b, out):
 
 
 @jit
+def blake(theta_h, theta2_h, lo, hi, a, b, out):
+    """Blake's piecewise quadratic in ``g = theta_h`` (Blake, Disselkoen and Kuijk,
+    Faster Phong shading, Computer Graphics Forum 1991; MODELS.md)
+    with breakpoints ``lo < hi``: ``1 - g^2/(lo hi)`` up to ``lo``, then
+    ``max(0, hi - g)^2 / (hi (hi - lo))``."""
+    core_scale = -1.0 / (lo * hi)
+    tail_scale = 1.0 / (hi * (hi - lo))
+    for i in range(out.shape[0]):
+        g = theta_h[i]
+        t = max(hi - g, 0.0)
+        value = 1.0 + theta2_h[i] * core_scale if g <= lo else t * t * tail_scale
+        out[i] = b + a * value
+    return out
+
+
+@jit
 def ward_anisotropic(tan2_t, tan2_b, log_factor, alpha_x, alpha_y, a, b, out):
     """``exp(-(tan2_t/alpha_x^2 + tan2_b/alpha_y^2)) / (4 pi alpha_x alpha_y
     sqrt((N.L)(N.V)))``; ``log_factor`` as in :func:`ward`."""
