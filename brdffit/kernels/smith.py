@@ -20,7 +20,7 @@ error of ``G1`` (its error is weighted by ``1 / (a + a Lambda)``) on Chebyshev p
 of ``[0, A_MAX]`` by linearised least squares (Sanathanan and Koerner, IEEE Trans.
 Autom. Control 8(1), 1963) with Lawson's reweighting towards the minimax error
 (C. L. Lawson, 1961; see L. N. Trefethen, Approximation Theory and Approximation
-Practice, SIAM 2013, ch. 23-24, on rational approximation). For ``a > A_MAX``
+Practice, SIAM 2013, on rational approximation and linearised least squares). For ``a > A_MAX``
 (directions within ``atan(1 / (A_MAX alpha))`` of the normal) ``G1`` is taken at
 ``A_MAX``: ``Lambda(5) = 1.5e-14``. The relative error of ``G1`` on the whole of
 ``a > 0`` is below :data:`MAX_ERROR` (measured against scipy's ``erfc`` on a dense
