@@ -11,11 +11,13 @@ design (``reference``).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 
 import numpy as np
 
 from ..models.base import INV_PI, Design
+from ..models.empirical import blake_bounds
 from . import inputs
 
 __all__ = ["CompiledDesign", "SPECS"]
@@ -35,12 +37,8 @@ class _Lobe:
         self.loop, self.prepare, self.shape = loop, prepare, shape
 
     def run(self, geometry, shape: Mapping, a: float, b: float) -> np.ndarray:
-        loops = _loops()
-        extra = (loops.SMITH_TABLE,) if self.loop == "beckmann" else ()
         out = np.empty(geometry.m)
-        return getattr(loops, self.loop)(
-            *self.prepare(geometry), *self.shape(shape), a, b, *extra, out
-        )
+        return getattr(_loops(), self.loop)(*self.prepare(geometry), *self.shape(shape), a, b, out)
 
     def design(self, geometry, shape: Mapping) -> Design:
         return Design((INV_PI, self.run(geometry, shape, 1.0, 0.0)))
@@ -82,19 +80,56 @@ def _alpha2(name: str, second: str | None = None) -> Callable:
     return lambda s: (float(s[name]) ** 2, float(s[second]))
 
 
+def _power(k: float | None) -> Callable:
+    """The exponent ``n`` and the factor of a power lobe: 1, or ``(n + k)/(k pi)``."""
+    if k is None:
+        return lambda s: (float(s["n"]), 1.0)
+    return lambda s: (float(s["n"]), (float(s["n"]) + k) / (k * math.pi))
+
+
+def _anisotropic(u: str, v: str) -> Callable:
+    return lambda s: (float(s[u]), float(s[v]), float(s["f0"]))
+
+
 #: Model name -> its compiled form.
 SPECS = {
     "ggx": _Lobe("ggx", inputs.microfacet_inputs, _alpha2("alpha", "f0")),
     "beckmann": _Lobe("beckmann", inputs.beckmann_inputs, _alpha2("alpha", "f0")),
     "ward": _Lobe("ward", inputs.ward_inputs, _alpha2("alpha")),
     "cook_torrance": _Lobe("cook_torrance", inputs.cook_torrance_inputs, _alpha2("m", "eta")),
+    "cook_torrance_schlick": _Lobe(
+        "cook_torrance_schlick", inputs.cook_torrance_schlick_inputs, _alpha2("m", "f0")
+    ),
+    "torrance_sparrow": _Lobe(
+        "torrance_sparrow", inputs.torrance_sparrow_inputs, _alpha2("m", "eta")
+    ),
     "blinn": _Lobe("blinn", inputs.blinn_inputs, lambda s: (float(s["n"]),)),
+    "blinn_normalized": _Lobe("power", inputs.blinn_inputs, _power(8.0)),
+    "phong": _Lobe("power", inputs.phong_inputs, _power(None)),
+    "phong_normalized": _Lobe("power", inputs.phong_inputs, _power(2.0)),
+    "heidrich_seidel": _Lobe("power", inputs.heidrich_seidel_inputs, _power(None)),
+    "schlick": _Lobe("schlick", inputs.schlick_inputs, lambda s: (float(s["n"]),)),
+    "blake": _Lobe("blake", inputs.blake_inputs, lambda s: blake_bounds(float(s["n"]))),
+    "wang": _Lobe("wang", inputs.wang_inputs, lambda s: (float(s["m"]), float(s["zeta"]))),
     "ward_anisotropic": _Lobe(
         "ward_anisotropic",
         inputs.ward_anisotropic_inputs,
         lambda s: (float(s["alpha_x"]), float(s["alpha_y"])),
     ),
     "ashikhmin_shirley": _AshikhminShirley(),
+    "ashikhmin_phong": _Lobe(
+        "ashikhmin_phong",
+        inputs.ashikhmin_phong_inputs,
+        lambda s: (float(s["nu"]), float(s["nv"])),
+    ),
+    "ggx_anisotropic": _Lobe(
+        "ggx_anisotropic", inputs.ggx_anisotropic_inputs, _anisotropic("alpha_u", "alpha_v")
+    ),
+    "beckmann_anisotropic": _Lobe(
+        "beckmann_anisotropic",
+        inputs.beckmann_anisotropic_inputs,
+        _anisotropic("alpha_u", "alpha_v"),
+    ),
 }
 
 

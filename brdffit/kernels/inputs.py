@@ -19,14 +19,29 @@ from ..data.geometry import MIN_COSINE, Geometry
 from ..models.shared import schlick_weight, vcavity_g
 
 __all__ = [
+    "ashikhmin_phong_inputs",
+    "COT_MAX",
     "ashikhmin_shirley_inputs",
+    "beckmann_anisotropic_inputs",
     "beckmann_inputs",
+    "blake_inputs",
     "blinn_inputs",
     "cook_torrance_inputs",
+    "cook_torrance_schlick_inputs",
+    "heidrich_seidel_inputs",
+    "ggx_anisotropic_inputs",
     "microfacet_inputs",
+    "phong_inputs",
+    "schlick_inputs",
+    "torrance_sparrow_inputs",
+    "wang_inputs",
     "ward_anisotropic_inputs",
     "ward_inputs",
 ]
+
+#: The largest ``1 / tan`` of the inputs: finite, so that ``cot / alpha`` (alpha >=
+#: 1e-3) stays finite; every ``a = cot / alpha`` over 4.5 gives the same ``G1``.
+COT_MAX = 1e100
 
 
 def _tan2_of(w: np.ndarray, cos: np.ndarray) -> np.ndarray:
@@ -57,15 +72,56 @@ def microfacet_inputs(g: Geometry) -> tuple:
     return g.cached("kernels.microfacet", compute)
 
 
+def _cot_of(tan2: np.ndarray) -> np.ndarray:
+    """``1 / tan`` of a polar angle, at most :data:`COT_MAX` (the normal's is infinite)."""
+    with np.errstate(divide="ignore"):
+        cot = 1.0 / np.sqrt(tan2)
+    return np.minimum(cot, COT_MAX, out=cot)
+
+
 def beckmann_inputs(g: Geometry) -> tuple:
-    """As :func:`microfacet_inputs`, with the logarithm of the factor (it is added to
-    the exponent of Beckmann's ``D``)."""
+    """As :func:`microfacet_inputs`, with ``1 / tan`` of L and V in place of their
+    ``tan^2`` (Smith's ``a = 1 / (alpha tan)``) and the logarithm of the factor (it is
+    added to the exponent of Beckmann's ``D``)."""
 
     def compute():
         tan2_h, tan2_i, tan2_o, factor, weight = microfacet_inputs(g)
-        return tan2_h, tan2_i, tan2_o, np.log(factor), weight
+        return tan2_h, _cot_of(tan2_i), _cot_of(tan2_o), np.log(factor), weight
 
     return g.cached("kernels.beckmann", compute)
+
+
+def _tan2_axes_of(w: np.ndarray, cos: np.ndarray) -> tuple:
+    """``(x/z)^2`` and ``(y/z)^2`` of a direction (of H: ``(H.T/N.H)^2``, ``(H.B/N.H)^2``,
+    which sum to ``tan^2``), so that ``alpha^2 tan^2`` of Smith's anisotropic ``G1``
+    is ``alpha_u^2 (x/z)^2 + alpha_v^2 (y/z)^2`` (Heitz 2014, section 5.4)."""
+    inv_c2 = 1.0 / (cos * cos)
+    return w[:, 0] ** 2 * inv_c2, w[:, 1] ** 2 * inv_c2
+
+
+def _anisotropic_axes(g: Geometry) -> tuple:
+    """:func:`_tan2_axes_of` of H, L and V: six arrays."""
+
+    def compute():
+        return (
+            *_tan2_axes_of(g.half, g.cos_h),
+            *_tan2_axes_of(g.wi, g.cos_i),
+            *_tan2_axes_of(g.wo, g.cos_o),
+        )
+
+    return g.cached("kernels.anisotropic_axes", compute)
+
+
+def ggx_anisotropic_inputs(g: Geometry) -> tuple:
+    """Anisotropic GGX: :func:`_anisotropic_axes`, then as :func:`microfacet_inputs`
+    ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's ``(1 - V.H)^5``."""
+    return (*_anisotropic_axes(g), *microfacet_inputs(g)[3:])
+
+
+def beckmann_anisotropic_inputs(g: Geometry) -> tuple:
+    """Anisotropic Beckmann: :func:`_anisotropic_axes`, then as
+    :func:`beckmann_inputs` the logarithm of the factor and Schlick's weight."""
+    return (*_anisotropic_axes(g), *beckmann_inputs(g)[3:])
 
 
 def ward_inputs(g: Geometry) -> tuple:
@@ -86,9 +142,67 @@ def cook_torrance_inputs(g: Geometry) -> tuple:
     return g.cached("kernels.cook_torrance", compute)
 
 
+def cook_torrance_schlick_inputs(g: Geometry) -> tuple:
+    """As :func:`cook_torrance_inputs`, with Schlick's ``(1 - V.H)^5`` for ``V.H``."""
+    return (*cook_torrance_inputs(g)[:2], microfacet_inputs(g)[4])
+
+
+def torrance_sparrow_inputs(g: Geometry) -> tuple:
+    """Torrance-Sparrow: ``theta_h^2``, ``ln(G / (4 (N.L)(N.V)))`` with the V-cavity
+    ``G`` and ``V.H``."""
+
+    def compute():
+        shadowing = vcavity_g(g.cos_h, g.cos_i, g.cos_o, g.cos_d)
+        factor = shadowing / (4.0 * g.cos_i * g.cos_o)
+        return g.theta_h**2, np.log(factor), np.maximum(g.cos_d, 1e-300)
+
+    return g.cached("kernels.torrance_sparrow", compute)
+
+
+def blake_inputs(g: Geometry) -> tuple:
+    """Blake: ``theta_h`` and ``theta_h^2``."""
+    return g.theta_h, g.cached("kernels.theta_h2", lambda: g.theta_h**2)
+
+
 def blinn_inputs(g: Geometry) -> tuple:
     """Blinn: ``ln(N.H)``, so that ``(N.H)^n = exp(n ln(N.H))``."""
     return (g.log_cos_h,)
+
+
+def phong_inputs(g: Geometry) -> tuple:
+    """Phong: ``ln(max(0, R.V))``, with -1e300 for ``ln 0`` (finite for the loop)."""
+
+    def compute():
+        with np.errstate(divide="ignore"):
+            log_cos_r = np.log(np.maximum(g.cos_r, 0.0))
+        return (np.maximum(log_cos_r, -1e300, out=log_cos_r),)
+
+    return g.cached("kernels.phong", compute)
+
+
+def heidrich_seidel_inputs(g: Geometry) -> tuple:
+    """Heidrich-Seidel: ``ln(sqrt(1-(L.T)^2) sqrt(1-(V.T)^2) - (L.T)(V.T))`` as in
+    :mod:`brdffit.models.anisotropic_shapes`, with -1e300 for ``ln`` of a base <= 0."""
+
+    def compute():
+        lt, vt = g.wi[:, 0], g.wo[:, 0]
+        base = np.sqrt(np.maximum(1.0 - lt * lt, 0.0)) * np.sqrt(np.maximum(1.0 - vt * vt, 0.0))
+        base -= lt * vt
+        out = np.full(g.m, -1e300)
+        np.log(base, out=out, where=base > 0)
+        return (out,)
+
+    return g.cached("kernels.heidrich_seidel", compute)
+
+
+def schlick_inputs(g: Geometry) -> tuple:
+    """Schlick's lobe: ``N.H`` and ``1 - N.H = sin^2(theta_h) / (1 + N.H)``."""
+    return g.cos_h, g.cached("kernels.schlick", lambda: g.sin2_h / (1.0 + g.cos_h))
+
+
+def wang_inputs(g: Geometry) -> tuple:
+    """Wang: ``ln(N.H)`` and ``cos^2(phi_h)``."""
+    return g.log_cos_h, g.cos2_phi_h
 
 
 def ward_anisotropic_inputs(g: Geometry) -> tuple:
@@ -101,6 +215,12 @@ def ward_anisotropic_inputs(g: Geometry) -> tuple:
         return h[:, 0] ** 2 * inv_c2, h[:, 1] ** 2 * inv_c2, np.log(_ward_factor(g))
 
     return g.cached("kernels.ward_anisotropic", compute)
+
+
+def ashikhmin_phong_inputs(g: Geometry) -> tuple:
+    """Ashikhmin's anisotropic Phong lobe: ``cos^2(phi_h) ln(N.H)``, ``sin^2(phi_h)
+    ln(N.H)`` (those of :func:`ashikhmin_shirley_inputs`)."""
+    return ashikhmin_shirley_inputs(g)[:2]
 
 
 def ashikhmin_shirley_inputs(g: Geometry) -> tuple:

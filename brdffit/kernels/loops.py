@@ -12,11 +12,16 @@ those of the numpy models (MODELS.md), whose docstrings cite the primary sources
 
 - GGX ``D`` and Smith ``G1`` (Walter, Marschner, Li and Torrance, Microfacet
   models for refraction through rough surfaces, EGSR 2007, eqs. 33-34), Beckmann
-  ``D`` and its exact Smith ``G1`` (ibid., and Heitz, JCGT 3(2), 2014, section 5.1);
+  ``D`` and its Smith ``G1`` (ibid., and Heitz, JCGT 3(2), 2014, section 5.1; a
+  rational function within 1e-12 of the exact one, :mod:`brdffit.kernels.smith`);
 - Ward's isotropic and anisotropic lobes (Ward, SIGGRAPH 1992, eq. 5a);
-- Cook-Torrance with V-cavity shadowing and the dielectric Fresnel term (Cook and
-  Torrance, ACM TOG 1(1), 1982);
-- Blinn's ``(N.H)^n`` (Blinn, SIGGRAPH 1977);
+- Cook-Torrance with V-cavity shadowing and the dielectric Fresnel term or Schlick's
+  (Cook and Torrance, ACM TOG 1(1), 1982), Torrance-Sparrow's Gaussian in the angle
+  (Torrance and Sparrow, JOSA 57(9), 1967);
+- Blinn's ``(N.H)^n`` (Blinn, SIGGRAPH 1977), Phong's ``max(0, R.V)^n`` (Phong,
+  CACM 18(6), 1975) and their normalised forms (``(n+8)/(8 pi)``: Akenine-Moller,
+  Haines and Hoffman, Real-Time Rendering, 3rd ed., 2008; ``(n+2)/(2 pi)``: Lewis,
+  Computer Graphics Forum 13(2), 1994);
 - Ashikhmin-Shirley (Ashikhmin and Shirley, JGT 5(2), 2000, eqs. 4-5).
 """
 
@@ -28,8 +33,7 @@ import numba
 import numpy as np
 
 from ._compile import FLAGS, fast_exp, jit
-from .smith import A_MAX, WIDTH
-from .smith import table as smith_table
+from .smith import A_MAX, P, Q
 
 _INV_PI = 1.0 / math.pi
 
@@ -50,43 +54,87 @@ def ggx(tan2_h, tan2_i, tan2_o, factor, weight, alpha2, f0, a, b, out):
 
 
 @numba.njit(inline="always", fastmath=FLAGS)
-def beckmann_g1(t, coefficients):
-    """Exact Smith masking of Beckmann for ``t = alpha^2 tan^2``, ``a = 1/sqrt(t)``:
-    1 for ``a >= 6`` (``Lambda < 3e-18``), else ``a q(a)`` from the polynomial table
-    of :mod:`brdffit.kernels.smith` (no library call, so the loop vectorises)."""
-    a = 1.0 / math.sqrt(max(t, 1e-300))
-    j = int(min(a, A_MAX - WIDTH / 2) * (1.0 / WIDTH))
-    x = (a - j * WIDTH) * (2.0 / WIDTH) - 1.0
-    k = j * 11  # the row of interval j in the flat table; Horner written out
-    q = coefficients[k + 10] * x + coefficients[k + 9]
-    q = q * x + coefficients[k + 8]
-    q = q * x + coefficients[k + 7]
-    q = q * x + coefficients[k + 6]
-    q = q * x + coefficients[k + 5]
-    q = q * x + coefficients[k + 4]
-    q = q * x + coefficients[k + 3]
-    q = q * x + coefficients[k + 2]
-    q = q * x + coefficients[k + 1]
-    q = q * x + coefficients[k + 0]
-    return 1.0 if a >= A_MAX else a * q
+def _beckmann_g1_terms(a):
+    """``(a Q(x), a Q(x) + P(x))`` of :mod:`brdffit.kernels.smith`, whose ratio is
+    Beckmann's Smith ``G1`` at ``a = 1/(alpha tan theta) <= A_MAX``: no library call
+    and no table, so the loop vectorises."""
+    x = a * (2.0 / A_MAX) - 1.0
+    q = Q[0]
+    for k in range(1, len(Q)):  # Horner; the tuples are constants, the loops unrolled
+        q = q * x + Q[k]
+    p = P[0]
+    for k in range(1, len(P)):
+        p = p * x + P[k]
+    n = a * q
+    return n, n + p
 
 
 @jit
-def beckmann(tan2_h, tan2_i, tan2_o, log_factor, weight, alpha2, f0, a, b, coefficients, out):
-    """Beckmann ``D`` with its exact Smith ``G1`` and Schlick's F. ``log_factor`` is
-    ``ln(1 / (4 (N.L)(N.V) (N.H)^4))``, added to the exponent of ``D``."""
+def beckmann(tan2_h, cot_i, cot_o, log_factor, weight, alpha2, f0, a, b, out):
+    """Beckmann ``D`` with its Smith ``G1`` (:mod:`brdffit.kernels.smith`) and
+    Schlick's F. ``cot_i``, ``cot_o`` are ``1/tan`` of L and V (so ``a = cot/alpha``
+    needs no division), ``log_factor`` is ``ln(1 / (4 (N.L)(N.V) (N.H)^4))``, added
+    to the exponent of ``D``; one division per pair for both ``G1``."""
     if a <= 0.0:
         out[:] = b
         return out
     inv_a2 = 1.0 / alpha2
+    inv_alpha = math.sqrt(inv_a2)
     log_scale = math.log(a * _INV_PI * inv_a2)
     for i in range(out.shape[0]):
         fresnel = f0 + (1.0 - f0) * weight[i]
-        g = beckmann_g1(alpha2 * tan2_i[i], coefficients) * beckmann_g1(
-            alpha2 * tan2_o[i], coefficients
-        )
+        n_i, d_i = _beckmann_g1_terms(min(cot_i[i] * inv_alpha, A_MAX))
+        n_o, d_o = _beckmann_g1_terms(min(cot_o[i] * inv_alpha, A_MAX))
         lobe = fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_a2)
-        out[i] = b + fresnel * g * lobe
+        out[i] = b + fresnel * lobe * (n_i * n_o) / (d_i * d_o)
+    return out
+
+
+@jit
+def ggx_anisotropic(
+    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, weight, alpha_u, alpha_v, f0, a, b, out
+):
+    """Anisotropic GGX (Heitz 2014, section 5.4): ``D = 1 / (pi alpha_u alpha_v (N.H)^4
+    t^2)``, ``t = 1 + tan2_t/alpha_u^2 + tan2_b/alpha_v^2``, and Smith ``G1 = 2 / (1 +
+    sqrt(1 + alpha_u^2 tx + alpha_v^2 ty))`` of L and of V; ``factor`` as in :func:`ggx`."""
+    inv_u2, inv_v2 = 1.0 / (alpha_u * alpha_u), 1.0 / (alpha_v * alpha_v)
+    u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
+    scale = 4.0 * a * _INV_PI / (alpha_u * alpha_v)
+    for i in range(out.shape[0]):
+        t = 1.0 + tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2
+        g = (1.0 + math.sqrt(1.0 + u2 * tx_i[i] + v2 * ty_i[i])) * (
+            1.0 + math.sqrt(1.0 + u2 * tx_o[i] + v2 * ty_o[i])
+        )
+        fresnel = f0 + (1.0 - f0) * weight[i]
+        out[i] = b + scale * factor[i] * fresnel / (t * t * g)
+    return out
+
+
+@jit
+def beckmann_anisotropic(
+    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, log_factor, weight, alpha_u, alpha_v, f0, a, b, out
+):
+    """Anisotropic Beckmann (Heitz 2014, section 5.4): ``D = exp(-(tan2_t/alpha_u^2 +
+    tan2_b/alpha_v^2)) / (pi alpha_u alpha_v (N.H)^4)`` and the Smith ``G1`` of
+    :func:`beckmann` at ``a = 1 / sqrt(alpha_u^2 tx + alpha_v^2 ty)``; ``log_factor``
+    as in :func:`beckmann`. ``1/sqrt(s_L)`` and ``1/sqrt(s_V)`` share one division."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_u2, inv_v2 = 1.0 / (alpha_u * alpha_u), 1.0 / (alpha_v * alpha_v)
+    u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
+    log_scale = math.log(a * _INV_PI / (alpha_u * alpha_v))
+    for i in range(out.shape[0]):
+        # s = (alpha tan)^2 = 1/a^2; at most 1e20 (grazing), at least 1e-100 (the
+        # normal's 0), so that their product neither overflows nor underflows
+        s_i = max(u2 * tx_i[i] + v2 * ty_i[i], 1e-100)
+        s_o = max(u2 * tx_o[i] + v2 * ty_o[i], 1e-100)
+        r = 1.0 / (s_i * s_o)
+        n_i, d_i = _beckmann_g1_terms(min(math.sqrt(s_o * r), A_MAX))
+        n_o, d_o = _beckmann_g1_terms(min(math.sqrt(s_i * r), A_MAX))
+        fresnel = f0 + (1.0 - f0) * weight[i]
+        exponent = log_scale + log_factor[i] - (tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2)
+        out[i] = b + fresnel * fast_exp(exponent) * (n_i * n_o) / (d_i * d_o)
     return out
 
 
@@ -104,14 +152,24 @@ def ward(tan2_h, log_factor, alpha2, a, b, out):
     return out
 
 
+@numba.njit(inline="always", fastmath=FLAGS)
+def _twice_fresnel_dielectric(c, e2):
+    """``Rs + Rp`` (twice the unpolarised dielectric Fresnel factor) at ``c = V.H > 0``,
+    ``e2 = eta^2``: ``g = sqrt(max(0, eta^2 - 1 + c^2))``, ``Rs = ((c - g)/(c + g))^2``
+    and ``Rp = ((eta^2 c - g)/(eta^2 c + g))^2``
+    (:func:`brdffit.models.shared.fresnel_dielectric`), over one common denominator:
+    one division instead of three."""
+    g = math.sqrt(max(c * c + (e2 - 1.0), 0.0))
+    s_num, s_den = (c - g) * (e2 * c + g), (c + g) * (e2 * c + g)
+    p_num = (e2 * c - g) * (c + g)
+    den = s_den * s_den  # > 0: V.H >= (N.L + N.V)/2 > 0 for valid pairs
+    return (s_num * s_num + p_num * p_num) / den if den > 0.0 else 2.0
+
+
 @jit
 def cook_torrance(tan2_h, log_factor, cos_d, m2, eta, a, b, out):
     """Beckmann ``D``, V-cavity ``G`` (in ``log_factor``, the logarithm of
-    ``G / (4 pi (N.L)(N.V) (N.H)^4)``) and the exact dielectric Fresnel factor
-    ``(Rs + Rp) / 2`` with ``g = sqrt(max(0, eta^2 - 1 + c^2))``,
-    ``Rs = ((c - g)/(c + g))^2`` and ``Rp = ((eta^2 c - g)/(eta^2 c + g))^2``
-    (:func:`brdffit.models.shared.fresnel_dielectric`), over one common denominator:
-    one division per pair instead of three."""
+    ``G / (4 pi (N.L)(N.V) (N.H)^4)``) and the exact dielectric Fresnel factor."""
     if a <= 0.0:
         out[:] = b
         return out
@@ -119,13 +177,38 @@ def cook_torrance(tan2_h, log_factor, cos_d, m2, eta, a, b, out):
     e2 = eta * eta
     log_scale = math.log(0.5 * a * inv_m2)
     for i in range(out.shape[0]):
-        c = cos_d[i]
-        g = math.sqrt(max(c * c + (e2 - 1.0), 0.0))
-        s_num, s_den = (c - g) * (e2 * c + g), (c + g) * (e2 * c + g)
-        p_num = (e2 * c - g) * (c + g)
-        den = s_den * s_den  # > 0: V.H >= (N.L + N.V)/2 > 0 for valid pairs
-        fresnel = (s_num * s_num + p_num * p_num) / den if den > 0.0 else 2.0
+        fresnel = _twice_fresnel_dielectric(cos_d[i], e2)
         out[i] = b + fresnel * fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_m2)
+    return out
+
+
+@jit
+def cook_torrance_schlick(tan2_h, log_factor, weight, m2, f0, a, b, out):
+    """:func:`cook_torrance` with Schlick's ``F = f0 + (1 - f0) weight``."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_m2 = 1.0 / m2
+    log_scale = math.log(a * inv_m2)
+    for i in range(out.shape[0]):
+        fresnel = f0 + (1.0 - f0) * weight[i]
+        out[i] = b + fresnel * fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_m2)
+    return out
+
+
+@jit
+def torrance_sparrow(theta2_h, log_factor, cos_d, m2, eta, a, b, out):
+    """Torrance-Sparrow: ``exp(-theta_h^2/m^2)``, V-cavity ``G`` (in ``log_factor``, the
+    logarithm of ``G / (4 (N.L)(N.V))``) and the exact dielectric Fresnel factor."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    inv_m2 = 1.0 / m2
+    e2 = eta * eta
+    log_scale = math.log(0.5 * a)
+    for i in range(out.shape[0]):
+        fresnel = _twice_fresnel_dielectric(cos_d[i], e2)
+        out[i] = b + fresnel * fast_exp(log_scale + log_factor[i] - theta2_h[i] * inv_m2)
     return out
 
 
@@ -142,6 +225,64 @@ def blinn(log_cos_h, n, a, b, out):
 
 
 @jit
+def power(log_base, n, factor, a, b, out):
+    """``factor base^n = exp(n ln(base) + ln(factor))``: Phong's ``max(0, R.V)^n``,
+    Heidrich and Seidel's fibre cosine (SIGGRAPH 1999) and the energy-normalised Phong
+    and Blinn lobes (``log_base`` finite: ``ln 0`` is stored as
+    -1e300, whose ``n``-th multiple is flushed to 0 as numpy's ``exp(-inf)`` is 0)."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a * factor)
+    for i in range(out.shape[0]):
+        out[i] = b + fast_exp(n * log_base[i] + log_a)
+    return out
+
+
+@jit
+def schlick(cos_h, one_minus_cos_h, n, a, b, out):
+    """Schlick's rational lobe ``c / (n (1 - c) + c)``, ``c = N.H`` (Schlick, Computer
+    Gems IV, 1994), ``1 - c`` cached without cancellation."""
+    for i in range(out.shape[0]):
+        c = cos_h[i]
+        out[i] = b + a * c / (one_minus_cos_h[i] * n + c)
+    return out
+
+
+@numba.njit(cache=True, fastmath=FLAGS - {"contract"}, error_model="numpy")
+def wang(log_cos_h, cos2_phi_h, m, zeta, a, b, out):
+    """Wang's ``(N.H)^(m zeta / (m - (m - zeta) cos^2 phi_h))`` (Malashenkova's survey,
+    see the model). Without fused multiply-adds: ``m - (m - zeta) cos^2`` cancels when
+    ``m >> zeta``, and only the numpy model's two roundings reproduce its value
+    (measured: 5e-11 apart with them)."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a)
+    mz, dm = m * zeta, m - zeta
+    for i in range(out.shape[0]):
+        power = mz / (m - dm * cos2_phi_h[i])
+        out[i] = b + fast_exp(power * log_cos_h[i] + log_a)
+    return out
+
+
+@jit
+def blake(theta_h, theta2_h, lo, hi, a, b, out):
+    """Blake's piecewise quadratic in ``g = theta_h`` (Blake, Disselkoen and Kuijk,
+    Faster Phong shading, Computer Graphics Forum 1991; MODELS.md)
+    with breakpoints ``lo < hi``: ``1 - g^2/(lo hi)`` up to ``lo``, then
+    ``max(0, hi - g)^2 / (hi (hi - lo))``."""
+    core_scale = -1.0 / (lo * hi)
+    tail_scale = 1.0 / (hi * (hi - lo))
+    for i in range(out.shape[0]):
+        g = theta_h[i]
+        t = max(hi - g, 0.0)
+        value = 1.0 + theta2_h[i] * core_scale if g <= lo else t * t * tail_scale
+        out[i] = b + a * value
+    return out
+
+
+@jit
 def ward_anisotropic(tan2_t, tan2_b, log_factor, alpha_x, alpha_y, a, b, out):
     """``exp(-(tan2_t/alpha_x^2 + tan2_b/alpha_y^2)) / (4 pi alpha_x alpha_y
     sqrt((N.L)(N.V)))``; ``log_factor`` as in :func:`ward`."""
@@ -154,6 +295,20 @@ def ward_anisotropic(tan2_t, tan2_b, log_factor, alpha_x, alpha_y, a, b, out):
     for i in range(out.shape[0]):
         exponent = log_scale + log_factor[i] - (tan2_t[i] * inv_x2 + tan2_b[i] * inv_y2)
         out[i] = b + fast_exp(exponent)
+    return out
+
+
+@jit
+def ashikhmin_phong(log_t, log_b, nu, nv, a, b, out):
+    """Ashikhmin's anisotropic Phong lobe ``sqrt((nu+1)(nv+1))/(2 pi)
+    (N.H)^(nu cos^2 phi_h + nv sin^2 phi_h)`` (Ashikhmin and Shirley, JGT 5(2), 2000,
+    eq. 4), ``log_t``, ``log_b`` as in :func:`ashikhmin_shirley_columns`."""
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_norm = math.log(a * math.sqrt((nu + 1.0) * (nv + 1.0)) * (0.5 * _INV_PI))
+    for i in range(out.shape[0]):
+        out[i] = b + fast_exp(log_norm + nu * log_t[i] + nv * log_b[i])
     return out
 
 
@@ -179,10 +334,6 @@ def ashikhmin_shirley(log_t, log_b, log_scale, weight, diffuse, nu, nv, rd_eff, 
         s = fast_exp(log_norm + log_scale[i] + nu * log_t[i] + nv * log_b[i])
         out[i] = rd_eff * diffuse[i] + s * (rs + (1.0 - rs) * weight[i])
     return out
-
-
-#: Beckmann's Smith masking over a = 1/(alpha tan theta), see brdffit.kernels.smith.
-SMITH_TABLE = smith_table().ravel()
 
 
 @numba.njit(cache=True, fastmath=True, error_model="numpy")

@@ -1,21 +1,31 @@
-"""Beckmann's exact Smith masking as a table of polynomials, for vectorised loops.
+"""Beckmann's Smith masking as one rational function, for vectorised loops.
 
-``G1 = 2 / (1 + erf(a) + exp(-a^2) / (a sqrt(pi)))`` with ``a = 1 / (alpha tan
-theta)`` (Walter et al., EGSR 2007; Heitz, JCGT 3(2), 2014, section 5.1) needs
-``erf``, which numba evaluates by a library call: in a loop that stops LLVM from
-vectorising it (measured: 30 M pairs/s for a Beckmann loop calling ``erf`` against
-several hundred without). ``G1 = 1`` to double precision for ``a >= 6``, and on
-``0 < a < 6``
+The exact masking of the Beckmann distribution (Walter et al., EGSR 2007; Heitz,
+JCGT 3(2), 2014, section 5.1) is, with ``a = 1 / (alpha tan theta)``,
 
-    q(a) = G1(a) / a = 2 sqrt(pi) / (2 a sqrt(pi) + exp(-a^2) - a sqrt(pi) erfc(a))
+    G1 = 1 / (1 + Lambda(a)),  Lambda(a) = (exp(-a^2) / (a sqrt(pi)) - erfc(a)) / 2.
 
-is analytic (no pole at ``a = 0``, where ``G1`` vanishes like ``2 sqrt(pi) a``). It
-is interpolated at Chebyshev points on each of :data:`PIECES` intervals of width
-:data:`WIDTH` by a polynomial of degree :data:`DEGREE`; the interpolants of an
-analytic function converge geometrically (L. N. Trefethen, Approximation Theory and
-Approximation Practice, SIAM 2013, ch. 8). The table is built from scipy's ``erfc``
-when the loops are first imported; the measured relative error of ``G1`` is below
-3e-15 on ``(0, 6)`` (tests/models/test_kernels.py).
+It needs ``erfc``, which numba evaluates by a library call: in a loop that stops
+LLVM from vectorising it (measured: 30 M pairs/s for a Beckmann loop calling
+``erf``), and a table of polynomials over intervals of ``a`` makes the loop gather
+its coefficients (63 M pairs/s, measured). Here ``G1`` is one rational function of
+``a`` with fixed coefficients, evaluated by two Horner schemes and one division
+shared by the pair (no table, no branch):
+
+    G1(a) ~ a Q(x) / (a Q(x) + P(x)),  x = 2 a / A_MAX - 1,  0 <= a <= A_MAX,
+
+``P/Q`` a rational approximation of degree (11, 11) of ``a Lambda(a) = (exp(-a^2) /
+sqrt(pi) - a erfc(a)) / 2``, an entire function, fitted to minimise the relative
+error of ``G1`` (its error is weighted by ``1 / (a + a Lambda)``) on Chebyshev points
+of ``[0, A_MAX]`` by linearised least squares (Sanathanan and Koerner, IEEE Trans.
+Autom. Control 8(1), 1963) with Lawson's reweighting towards the minimax error
+(C. L. Lawson, 1961; see L. N. Trefethen, Approximation Theory and Approximation
+Practice, SIAM 2013, on rational approximation and linearised least squares). For ``a > A_MAX``
+(directions within ``atan(1 / (A_MAX alpha))`` of the normal) ``G1`` is taken at
+``A_MAX``: ``Lambda(5) = 1.5e-14``. The relative error of ``G1`` on the whole of
+``a > 0`` is below :data:`MAX_ERROR` (measured against scipy's ``erfc`` on a dense
+grid: tests/models/test_kernels.py). ``python -m brdffit.kernels.smith`` refits the
+coefficients.
 """
 
 from __future__ import annotations
@@ -26,30 +36,91 @@ import numpy as np
 from numpy.polynomial import chebyshev
 from scipy.special import erfc
 
-__all__ = ["DEGREE", "PIECES", "WIDTH", "A_MAX", "g1_over_a", "table"]
+__all__ = ["A_MAX", "MAX_ERROR", "P", "Q", "a_lambda", "fit", "g1", "g1_exact"]
 
-A_MAX = 6.0
-WIDTH = 0.25
-PIECES = 24  # A_MAX / WIDTH
-DEGREE = 10  # loops.beckmann_g1 writes its Horner scheme out for this degree
-_SQRT_PI = math.sqrt(math.pi)
+A_MAX = 5.0
+#: The stated bound on the relative error of :func:`g1` for every ``a > 0``.
+MAX_ERROR = 1e-12
+#: Coefficients of P and Q in powers of x, highest power first (Horner's order).
+P = (
+    -9.857684721511755e-05,
+    0.0008311544651313079,
+    -0.003233296235986207,
+    0.0076801800168779895,
+    -0.012405677960317898,
+    0.014335139530105772,
+    -0.012108559412705687,
+    0.007482941637265485,
+    -0.0033169863897241827,
+    0.0010044378918722553,
+    -0.0001869510865651642,
+    1.6194390767006184e-05,
+)
+Q = (
+    -0.012557755875159499,
+    -0.11362828670716676,
+    -0.4582206563026387,
+    -1.0891022998858106,
+    -1.689221612665887,
+    -1.6104243316060964,
+    -0.5905583843552038,
+    0.9692542989652794,
+    1.9758200875449796,
+    2.028432402337985,
+    1.1883397136764504,
+    0.45133566165280103,
+)
 
 
-def g1_over_a(a: np.ndarray) -> np.ndarray:
-    """``q(a) = G1(a) / a`` from scipy's ``erfc`` (the function the table holds)."""
+def a_lambda(a) -> np.ndarray:
+    """``a Lambda(a) = (exp(-a^2)/sqrt(pi) - a erfc(a)) / 2`` from scipy's ``erfc``."""
     a = np.asarray(a, dtype=float)
-    return 2.0 * _SQRT_PI / (2.0 * a * _SQRT_PI + np.exp(-a * a) - a * _SQRT_PI * erfc(a))
+    with np.errstate(over="ignore"):  # a^2 overflows for a > 1e154: exp(-inf) = 0
+        return 0.5 * (np.exp(-a * a) / math.sqrt(math.pi) - a * erfc(a))
 
 
-def table() -> np.ndarray:
-    """Power-basis coefficients, shape (PIECES, DEGREE + 1), lowest power first, of
-    ``q`` on interval ``j`` as a polynomial of ``x = (a - j WIDTH) 2/WIDTH - 1``."""
-    rows = []
-    for j in range(PIECES):
-        low = j * WIDTH
+def g1_exact(a) -> np.ndarray:
+    """Beckmann's Smith ``G1 = a / (a + a Lambda(a))`` from scipy's ``erfc``."""
+    a = np.asarray(a, dtype=float)
+    return a / (a + a_lambda(a))
 
-        def piece(x, low=low):
-            return g1_over_a(low + (x + 1.0) * (0.5 * WIDTH))
 
-        rows.append(chebyshev.cheb2poly(chebyshev.chebinterpolate(piece, DEGREE)))
-    return np.ascontiguousarray(rows, dtype=float)
+def g1(a, p=P, q=Q) -> np.ndarray:
+    """``G1`` as the loops compute it, ``a Q / (a Q + P)`` at ``min(a, A_MAX)``."""
+    a = np.minimum(np.asarray(a, dtype=float), A_MAX)
+    x = a * (2.0 / A_MAX) - 1.0
+    n = a * np.polyval(q, x)
+    return n / (n + np.polyval(p, x))
+
+
+def fit(m: int = 11, n: int = 11, points: int = 8000, iterations: int = 60):
+    """Fit ``P`` (degree m) and ``Q`` (degree n, ``Q``'s Chebyshev constant term 1):
+    the coefficients in powers of x, highest first, and the largest relative error of
+    ``G1`` on the fitting points (see the module docstring for the method)."""
+    x = np.cos(np.pi * (np.arange(points) + 0.5) / points)
+    a = (x + 1.0) * (0.5 * A_MAX)
+    f = a_lambda(a)
+    scale = a + f  # the error of P/Q relative to a + a Lambda is that of G1
+    vm, vn = chebyshev.chebvander(x, m), chebyshev.chebvander(x, n)
+    system = np.hstack([vm, -f[:, None] * vn[:, 1:]])
+    weights, denominator, best = np.ones(points), np.ones(points), None
+    for _ in range(iterations):
+        row = np.sqrt(weights) / (np.abs(denominator) * scale)
+        solution = np.linalg.lstsq(system * row[:, None], f * row, rcond=None)[0]
+        p, q = solution[: m + 1], np.concatenate([[1.0], solution[m + 1 :]])
+        denominator = chebyshev.chebval(x, q)
+        error = (chebyshev.chebval(x, p) / denominator - f) / scale
+        worst = float(np.max(np.abs(error)))
+        if best is None or worst < best[2]:
+            best = (p, q, worst)
+        weights = np.maximum(weights * np.abs(error), 1e-300)
+        weights /= weights.sum()
+    p, q, worst = best
+    in_powers = [tuple(float(c) for c in chebyshev.cheb2poly(c)[::-1]) for c in (p, q)]
+    return in_powers[0], in_powers[1], worst
+
+
+if __name__ == "__main__":
+    p, q, worst = fit()
+    print(f"# largest relative error of G1 on the fitting points: {worst:.3e}")
+    print(f"P = {p!r}\nQ = {q!r}")

@@ -79,7 +79,42 @@ def _cos2_phi(geometry: Geometry, which: str) -> np.ndarray:
     return geometry.cached(f"renderers.cos2_phi_{which}", compute)
 
 
+def _tan2_axes_h(geometry: Geometry) -> tuple[np.ndarray, np.ndarray]:
+    """``(H.T/N.H)^2`` and ``(H.B/N.H)^2``: ``tan^2(theta_h)`` times ``cos^2`` and
+    ``sin^2`` of its azimuth, from H's components (no ``cos^2 - 1`` to cancel)."""
+
+    def compute():
+        h, inv_c2 = geometry.half, 1.0 / geometry.cos_h**2
+        return h[:, 0] ** 2 * inv_c2, h[:, 1] ** 2 * inv_c2
+
+    return geometry.cached("renderers.tan2_axes_h", compute)
+
+
 # ----------------------------------------------------------------- lobes
+def _d_anisotropic(geometry: Geometry, distribution: str, alpha_u: float, alpha_v: float):
+    """The anisotropic ``D`` of :func:`~brdffit.models.shared.beckmann_d_anisotropic`
+    and :func:`~brdffit.models.shared.ggx_d_anisotropic` (Heitz 2014, section 5.4),
+    its ``tan^2 (cos^2 phi/alpha_u^2 + sin^2 phi/alpha_v^2)`` summed from
+    :func:`_tan2_axes_h`: two positive terms. (Those functions' ``cos^2 phi (1/alpha_u^2
+    - 1/alpha_v^2) + 1/alpha_v^2`` cancels: measured, exponents of 200-600 wrong by
+    3e-11 at alpha_v = 0.003.)"""
+    along_t, along_b = _tan2_axes_h(geometry)
+    # not in place: alpha_u and alpha_v may be (W, 1) arrays of walkers, or one of them
+    e = along_t * (1.0 / (alpha_u * alpha_u)) + along_b * (1.0 / (alpha_v * alpha_v))
+    if distribution == "ggx":
+        e += 1.0
+        e *= geometry.cos_h
+        e *= geometry.cos_h
+        e *= e
+        return np.divide(1.0 / (np.pi * alpha_u * alpha_v), e, out=e)
+    np.negative(e, out=e)
+    np.exp(e, out=e)
+    for _ in range(4):
+        e /= geometry.cos_h
+    e *= 1.0 / (np.pi * alpha_u * alpha_v)
+    return e
+
+
 def _finish(geometry: Geometry, lobe, g1, alpha2_i, alpha2_o, f0: float) -> np.ndarray:
     """``lobe * G1(L) G1(V) F / (4 N.L N.V)``, in place on ``lobe`` (which holds D)."""
     lobe *= g1(_tan2(geometry, "i"), alpha2_i)
@@ -102,8 +137,8 @@ def anisotropic_lobe(
 ) -> np.ndarray:
     """As :func:`isotropic_lobe` with ``alpha_u`` along T and ``alpha_v`` along B;
     ``G1`` uses the roughness projected on the azimuth of each direction."""
-    _, d_aniso, g1 = _DISTRIBUTIONS[distribution]
-    lobe = d_aniso(geometry.tan2_h, geometry.cos_h, geometry.cos2_phi_h, alpha_u, alpha_v)
+    g1 = _DISTRIBUTIONS[distribution][2]
+    lobe = _d_anisotropic(geometry, distribution, alpha_u, alpha_v)
     alpha2_i = projected_alpha2(_cos2_phi(geometry, "i"), alpha_u, alpha_v)
     alpha2_o = projected_alpha2(_cos2_phi(geometry, "o"), alpha_u, alpha_v)
     return _finish(geometry, lobe, g1, alpha2_i, alpha2_o, f0)

@@ -53,19 +53,57 @@ def test_fast_exp_is_accurate_to_rounding_and_flushes_below_its_minimum():
     assert (got[~normal] == 0.0).all() and (~normal).sum() > 1000
 
 
-def test_the_smith_table_of_beckmann_matches_erf():
-    from brdffit.kernels.smith import A_MAX, DEGREE, PIECES, WIDTH, table
+def test_the_rational_smith_masking_of_beckmann_matches_erf():
+    """smith.g1 (what the loops compute) against the exact G1 from scipy's erf on a
+    dense grid of a = 1/(alpha tan) from 1e-300 to far past A_MAX: within the stated
+    bound, which is of the order of the fit's own error (not a loose one)."""
+    from brdffit.kernels import smith
 
-    coefficients = table()
-    assert coefficients.shape == (PIECES, DEGREE + 1) and PIECES * WIDTH == A_MAX
-    a = np.linspace(1e-9, A_MAX - 1e-12, 200_001)
-    j = np.minimum((a / WIDTH).astype(int), PIECES - 1)
-    x = (a - j * WIDTH) * (2.0 / WIDTH) - 1.0
-    q = np.zeros_like(a)
-    for k in range(DEGREE, -1, -1):
-        q = q * x + coefficients[j, k]
+    a = np.concatenate(
+        [np.geomspace(1e-300, 1e-3, 2001), np.linspace(1e-3, 8.0, 400_001), [50.0, 1e10]]
+    )
     expected = 2.0 / (1.0 + erf(a) + np.exp(-a * a) / (a * math.sqrt(math.pi)))
-    assert np.max(np.abs(a * q / expected - 1.0)) < 3e-15
+    error = np.max(np.abs(smith.g1(a) / expected - 1.0))
+    assert error < smith.MAX_ERROR, error
+    assert error > smith.MAX_ERROR / 4, "MAX_ERROR overstates the error: tighten it"
+    x = np.linspace(-1.0, 1.0, 10_001)
+    a = (x + 1.0) * (smith.A_MAX / 2)
+    assert np.all(np.polyval(smith.Q, x) > 0.0)  # no pole of P/Q on [0, A_MAX]
+    assert np.all(a * np.polyval(smith.Q, x) + np.polyval(smith.P, x) > 0.0)
+
+
+def test_refitting_the_smith_masking_gives_the_stored_coefficients():
+    from brdffit.kernels import smith
+
+    p, q, worst = smith.fit()
+    np.testing.assert_allclose(p, smith.P, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(q, smith.Q, rtol=1e-9, atol=1e-15)
+    assert worst < smith.MAX_ERROR
+
+
+def test_the_compiled_beckmann_loop_computes_the_rational_smith_masking():
+    """The loop's G1(L) G1(V) (D's factor and exponent zeroed, V at the normal) equals
+    smith.g1's at a = cot/alpha, from a -> 0 to past A_MAX."""
+    from brdffit.kernels import loops, smith
+    from brdffit.kernels.inputs import COT_MAX
+
+    alpha = 0.3
+    cot = np.geomspace(1e-9, 1e3, 5001)
+    zeros = np.zeros_like(cot)
+    got = loops.beckmann(
+        zeros,
+        cot,
+        np.full_like(cot, COT_MAX),
+        np.full_like(cot, math.log(math.pi * alpha**2)),  # cancels D's 1/(pi alpha^2)
+        zeros,
+        alpha**2,
+        1.0,
+        1.0,
+        0.0,
+        np.empty_like(cot),
+    )
+    expected = smith.g1(cot / alpha) * smith.g1(COT_MAX / alpha)
+    np.testing.assert_allclose(got, expected, rtol=1e-14, atol=0)
 
 
 def test_the_named_models_are_those_with_a_kernel():
