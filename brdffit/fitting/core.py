@@ -75,8 +75,8 @@ def fit(data, model, **options) -> FitResult:
         what each means: ``loss``, ``weights``, ``fixed``, ``free``, ``start``,
         ``global_algorithm``, ``local_algorithm``, ``global_evals``,
         ``local_evals``, ``restarts``, ``max_evals``, ``timeout``, ``seed``,
-        ``energy_conserving``, ``progress``, ``uncertainty``,
-        ``posterior_options``.
+        ``coarse_above``, ``subsample``, ``energy_conserving``, ``progress``,
+        ``uncertainty``, ``posterior_options``.
 
     Returns
     -------
@@ -272,6 +272,8 @@ def _result(
         message += "; at a bound of its range: " + ", ".join(at_bounds)
     if unidentified:
         message += "; not identified by the data: " + ", ".join(unidentified)
+    if found.schedule:
+        message += "; " + found.schedule
     if energy is not None:
         metrics["max_albedo"] = energy.top
         message += energy.note()

@@ -70,6 +70,7 @@ class Problem:
         noise_sigma=None,
     ):
         self.data = data
+        self._last_prediction = None
         self.model = get_model(model)
         self.loss = get_loss(loss)
         self.geometry = data.geometry()
@@ -335,12 +336,31 @@ class Problem:
         return params
 
     def predict(self, params: Mapping) -> np.ndarray:
-        """Model values (N, C) at the data's directions for full params."""
+        """Model values (N, C) at the data's directions for full params (read-only).
+
+        The last prediction is kept: after a fit, its metrics, exact loss, noise
+        estimate and misfit test all ask for the prediction at the same params,
+        which is then formed once."""
+        key = _fingerprint(params)
+        last = self._last_prediction
+        if last is not None and last[0] == key:
+            return last[1]
         values = self.model.evaluate_prepared(self.geometry, params)
         values = np.asarray(values)
         if values.ndim == 1:
             values = np.repeat(values[:, None], self.n_channels, axis=1)
+        values.setflags(write=False)
+        self._last_prediction = (key, values)  # one assignment: safe for threads
         return values
+
+
+def _fingerprint(params: Mapping) -> tuple:
+    """The exact values of ``params`` (names, dtypes, bytes): equal only for equal params."""
+    out = []
+    for name in sorted(params):
+        value = np.asarray(params[name])
+        out.append((name, value.dtype.str, value.shape, value.tobytes()))
+    return tuple(out)
 
 
 def _squeeze(v: np.ndarray):

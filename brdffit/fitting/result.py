@@ -185,23 +185,37 @@ def _fmt(value) -> str:
 def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int) -> dict:
     """Every loss, RMSE, AIC and BIC of predictions ``pred`` (N, C) against ``y``.
 
+    Each quantity is formed once: the residual ``d = pred - y`` serves every loss
+    whose transform is linear in ``f`` (``t(f) - t(y) = t(d)``: l2, cosine,
+    relative, chi2, mixed), the RMSE is the l2 loss's root when there are no
+    weights, and only the non-linear transforms (log, cbrt) are applied to
+    ``pred`` and ``y`` (:mod:`brdffit.fitting.losses` gives each loss's formula).
+
     AIC and BIC use the Gaussian likelihood: with per-sample sigma,
     ``-2 ln L = chi2 + const``, so ``AIC = chi2 + 2k``, ``BIC = chi2 + k ln n``;
     without sigma, an unknown common variance is profiled out:
     ``AIC = n ln(RSS/n) + 2k``, ``BIC = n ln(RSS/n) + k ln n`` (n observations,
-    k fitted parameters). Only differences between models on the same data mean
-    anything.
+    k fitted parameters; Burnham and Anderson 2002, "Model Selection and
+    Multimodel Inference", Springer, sec. 2.2). Only differences between models
+    on the same data mean anything.
     """
+    resid = np.asarray(pred, dtype=float) - y
+    n = y.size
+    rss = _sum_of_squares(resid, None)
     out = {}
     for name, loss in LOSSES.items():
         if (loss.needs_sigma and ctx.sigma is None) or (
             loss.needs_noise and ctx.noise_sigma is None
         ):
             continue
-        out[name] = loss.value(pred, ctx)
-    resid = pred - y
-    n = y.size
-    rss = float(np.sum(resid * resid))
+        if name == "l2" and ctx.weights is None:
+            total = rss
+        elif loss.linear:
+            total = _sum_of_squares(loss.transform(resid, ctx), ctx.weights)
+        else:
+            diff = loss.transform(pred, ctx) - loss.transform(y, ctx)
+            total = _sum_of_squares(diff, ctx.weights)
+        out[name] = total if loss.is_sum else total / n
     out["rmse"] = math.sqrt(rss / n)
     if ctx.sigma is not None:
         base = out["chi2"]
@@ -210,3 +224,13 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
     out["aic"] = base + 2 * n_params
     out["bic"] = base + n_params * math.log(n)
     return out
+
+
+def _sum_of_squares(d: np.ndarray, weights) -> float:
+    """``sum_m w_m sum_c d_mc^2`` in one pass (no squared copy of ``d``)."""
+    d = np.asarray(d, dtype=float)
+    if d.ndim == 1:
+        d = d[:, None]
+    if weights is None:
+        return float(np.einsum("mc,mc->", d, d))
+    return float(np.einsum("mc,mc,m->", d, d, np.asarray(weights, dtype=float)))
