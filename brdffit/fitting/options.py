@@ -46,9 +46,9 @@ NO_CAP = 10**9
 #: Default ``subsample``: samples of the coarse-to-fine schedule's subsample.
 SUBSAMPLE = 20_000
 #: Default ``coarse_above``: above this many samples the coarse-to-fine schedule runs
-#: (measured on MERL subsets, benchmarks/README.md: below it the polish on all the
-#: samples costs less than the schedule's extra polish).
-COARSE_ABOVE = 100_000
+#: (measured on random subsets of a MERL file, benchmarks/README.md: at 25,000 samples
+#: the schedule's search costs what the search on all samples does, from 50,000 less).
+COARSE_ABOVE = 50_000
 #: The smallest ``subsample``: fewer samples would not show a narrow highlight.
 MIN_SUBSAMPLE = 1000
 

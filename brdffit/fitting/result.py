@@ -199,9 +199,11 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
     Multimodel Inference", Springer, sec. 2.2). Only differences between models
     on the same data mean anything.
     """
-    resid = np.asarray(pred, dtype=float) - y
+    pred = np.asarray(pred, dtype=float)
+    resid = pred - y
     n = y.size
     rss = _sum_of_squares(resid, None)
+    projected = {}  # f cos(theta_i) and y cos(theta_i), formed once for log and cbrt
     out = {}
     for name, loss in LOSSES.items():
         if (loss.needs_sigma and ctx.sigma is None) or (
@@ -212,6 +214,11 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
             total = rss
         elif loss.linear:
             total = _sum_of_squares(loss.transform(resid, ctx), ctx.weights)
+        elif name in _PROJECTED:
+            if not projected:
+                cos = np.asarray(ctx.cos_i, dtype=float)[:, None]
+                projected.update(f=pred * cos, y=y * cos)
+            total = _sum_of_squares(_PROJECTED[name](projected), ctx.weights)
         else:
             diff = loss.transform(pred, ctx) - loss.transform(y, ctx)
             total = _sum_of_squares(diff, ctx.weights)
@@ -224,6 +231,26 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
     out["aic"] = base + 2 * n_params
     out["bic"] = base + n_params * math.log(n)
     return out
+
+
+def _log_difference(p: dict) -> np.ndarray:
+    """``ln(1 + f cos) - ln(1 + y cos)`` (each argument at least 1e-12), in place."""
+    t = np.add(p["f"], 1.0)
+    u = np.add(p["y"], 1.0)
+    np.log(np.maximum(t, 1e-12, out=t), out=t)
+    np.log(np.maximum(u, 1e-12, out=u), out=u)
+    return np.subtract(t, u, out=t)
+
+
+def _cbrt_difference(p: dict) -> np.ndarray:
+    """``cbrt(f cos) - cbrt(y cos)``."""
+    t = np.cbrt(p["f"])
+    return np.subtract(t, np.cbrt(p["y"]), out=t)
+
+
+#: The non-linear losses of :mod:`brdffit.fitting.losses` computed here from ``f cos``
+#: and ``y cos`` formed once (the test of the metrics holds them to each loss's value).
+_PROJECTED = {"log": _log_difference, "cbrt": _cbrt_difference}
 
 
 def _sum_of_squares(d: np.ndarray, weights) -> float:

@@ -114,7 +114,7 @@ class OptionsOut(BaseModel):
     timeout: MaybeFloat = Field(description="Seconds the fit could run; null: no limit.")
     seed: int = Field(description="The seed (same seed, same result).")
     coarse_above: int = Field(
-        100_000,
+        50_000,
         description="Samples above which the search ran coarse to fine (a stratified "
         "subsample, then one polish on all).",
     )

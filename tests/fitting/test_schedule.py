@@ -11,6 +11,7 @@ from helpers import make_data
 
 from brdffit import FitError, Measurements, fit
 from brdffit.fitting.losses import LOSSES, LossContext
+from brdffit.fitting.options import COARSE_ABOVE
 from brdffit.fitting.problem import Problem
 from brdffit.fitting.result import metrics_of
 from brdffit.fitting.schedule import BINS, stratified_rows, subproblem
@@ -157,14 +158,14 @@ def test_coarse_to_fine_with_the_default_loss_weights_and_a_start(ward_data):
 
 
 def test_small_data_run_as_without_the_schedule(ward_data):
-    """At or below coarse_above (and by default, below 100,000 samples) nothing changes."""
+    """At or below coarse_above (and by default, at or below 50,000 samples) nothing changes."""
     at = fit(ward_data, "ward", loss="l2", coarse_above=6000, subsample=1500)
     off = fit(ward_data, "ward", loss="l2", coarse_above=10**9)
     assert at.n_evals == off.n_evals and at.loss == off.loss
     assert at.params["alpha"] == off.params["alpha"]
     default = fit(ward_data, "ward", loss="l2")
     assert default.n_evals == off.n_evals and "coarse to fine" not in default.message
-    assert default.options["coarse_above"] == 100_000
+    assert default.options["coarse_above"] == COARSE_ABOVE == 50_000
 
 
 def test_a_budget_used_up_on_the_subsample_still_answers_on_all_samples(ward_data):
