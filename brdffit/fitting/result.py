@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any
 
@@ -13,6 +13,7 @@ import numpy as np
 from ..jsonable import jsonable
 from ..words import plural
 from .losses import LOSSES, LossContext
+from .sums import loss_sums
 
 __all__ = ["FitResult", "metrics_of"]
 
@@ -183,13 +184,9 @@ def _fmt(value) -> str:
 
 
 def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int) -> dict:
-    """Every loss, RMSE, AIC and BIC of predictions ``pred`` (N, C) against ``y``.
-
-    Each quantity is formed once: the residual ``d = pred - y`` serves every loss
-    whose transform is linear in ``f`` (``t(f) - t(y) = t(d)``: l2, cosine,
-    relative, chi2, mixed), the RMSE is the l2 loss's root when there are no
-    weights, and only the non-linear transforms (log, cbrt) are applied to
-    ``pred`` and ``y`` (:mod:`brdffit.fitting.losses` gives each loss's formula).
+    """Every loss, RMSE, AIC and BIC of predictions ``pred`` (N, C) against ``y``
+    (``ctx.y``), from the sums of :func:`brdffit.fitting.sums.loss_sums` (one pass
+    over cache-sized blocks; the RMSE is the root of the unweighted mean square).
 
     AIC and BIC use the Gaussian likelihood: with per-sample sigma,
     ``-2 ln L = chi2 + const``, so ``AIC = chi2 + 2k``, ``BIC = chi2 + k ln n``;
@@ -199,30 +196,10 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
     Multimodel Inference", Springer, sec. 2.2). Only differences between models
     on the same data mean anything.
     """
-    pred = np.asarray(pred, dtype=float)
-    resid = pred - y
-    n = y.size
-    rss = _sum_of_squares(resid, None)
-    projected = {}  # f cos(theta_i) and y cos(theta_i), formed once for log and cbrt
-    out = {}
-    for name, loss in LOSSES.items():
-        if (loss.needs_sigma and ctx.sigma is None) or (
-            loss.needs_noise and ctx.noise_sigma is None
-        ):
-            continue
-        if name == "l2" and ctx.weights is None:
-            total = rss
-        elif loss.linear:
-            total = _sum_of_squares(loss.transform(resid, ctx), ctx.weights)
-        elif name in _PROJECTED:
-            if not projected:
-                cos = np.asarray(ctx.cos_i, dtype=float)[:, None]
-                projected.update(f=pred * cos, y=y * cos)
-            total = _sum_of_squares(_PROJECTED[name](projected), ctx.weights)
-        else:
-            diff = loss.transform(pred, ctx) - loss.transform(y, ctx)
-            total = _sum_of_squares(diff, ctx.weights)
-        out[name] = total if loss.is_sum else total / n
+    sums = loss_sums(pred, replace(ctx, y=y))
+    n = np.size(y)
+    rss = sums.pop("rss")
+    out = {name: total if LOSSES[name].is_sum else total / n for name, total in sums.items()}
     out["rmse"] = math.sqrt(rss / n)
     if ctx.sigma is not None:
         base = out["chi2"]
@@ -231,33 +208,3 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
     out["aic"] = base + 2 * n_params
     out["bic"] = base + n_params * math.log(n)
     return out
-
-
-def _log_difference(p: dict) -> np.ndarray:
-    """``ln(1 + f cos) - ln(1 + y cos)`` (each argument at least 1e-12), in place."""
-    t = np.add(p["f"], 1.0)
-    u = np.add(p["y"], 1.0)
-    np.log(np.maximum(t, 1e-12, out=t), out=t)
-    np.log(np.maximum(u, 1e-12, out=u), out=u)
-    return np.subtract(t, u, out=t)
-
-
-def _cbrt_difference(p: dict) -> np.ndarray:
-    """``cbrt(f cos) - cbrt(y cos)``."""
-    t = np.cbrt(p["f"])
-    return np.subtract(t, np.cbrt(p["y"]), out=t)
-
-
-#: The non-linear losses of :mod:`brdffit.fitting.losses` computed here from ``f cos``
-#: and ``y cos`` formed once (the test of the metrics holds them to each loss's value).
-_PROJECTED = {"log": _log_difference, "cbrt": _cbrt_difference}
-
-
-def _sum_of_squares(d: np.ndarray, weights) -> float:
-    """``sum_m w_m sum_c d_mc^2`` in one pass (no squared copy of ``d``)."""
-    d = np.asarray(d, dtype=float)
-    if d.ndim == 1:
-        d = d[:, None]
-    if weights is None:
-        return float(np.einsum("mc,mc->", d, d))
-    return float(np.einsum("mc,mc,m->", d, d, np.asarray(weights, dtype=float)))

@@ -10,6 +10,7 @@ import pytest
 from helpers import make_data
 
 from brdffit import FitError, Measurements, fit
+from brdffit.fitting import sums
 from brdffit.fitting.losses import LOSSES, LossContext
 from brdffit.fitting.options import COARSE_ABOVE
 from brdffit.fitting.problem import Problem
@@ -45,8 +46,12 @@ def _old_metrics(pred, y, ctx, n_params):
     return out
 
 
+@pytest.mark.parametrize("block", [16_384, 1000])
 @pytest.mark.parametrize("extras", ["none", "weights", "sigma and noise"])
-def test_metrics_from_one_residual_equal_the_old_formula(ward_data, extras):
+def test_metrics_from_one_residual_equal_the_old_formula(ward_data, extras, block, monkeypatch):
+    """The metrics summed over blocks of samples (several blocks with 1000) equal every
+    loss's own value on all the samples at once."""
+    monkeypatch.setattr(sums, "BLOCK", block)
     result = fit(ward_data, "ward", loss="l2")
     problem = Problem(ward_data, "ward")
     pred = np.asarray(problem.predict(dict(result.params)))
