@@ -3,7 +3,9 @@ metrics from one residual (issue 13)."""
 
 from __future__ import annotations
 
+import gc
 import math
+import weakref
 
 import numpy as np
 import pytest
@@ -99,6 +101,13 @@ def test_the_prediction_at_the_same_params_is_formed_once(ward_data):
     # A changed value in one channel is another prediction too.
     other = problem.predict({**params, "ks": np.array([0.3, 0.5000001])})
     assert calls == [1, 1] and not np.array_equal(other[:, 1], first[:, 1])
+    # The problem does not keep a prediction alive that no caller holds.
+    gone = weakref.ref(other)
+    del other
+    gc.collect()
+    assert gone() is None
+    problem.predict({**params, "ks": np.array([0.3, 0.5000001])})
+    assert calls == [1, 1, 1]
 
 
 def test_stratified_rows_keep_each_cell_share_and_the_seed():
