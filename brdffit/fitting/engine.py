@@ -299,15 +299,22 @@ def _absorb(main: Search, scout: Search):
 
 def _distinct_starts(search: Search, count: int, exclude: list) -> list:
     """Up to ``count`` good points of the history, each at least 0.1 of the box away
-    (in the search space) from every point already chosen."""
+    (in the search space) from every point already chosen: in the order of their
+    losses, the first far enough from ``exclude`` and from those chosen before it."""
+    if count <= 0 or not search.history:
+        return []
     p = search.problem
     width = np.where(p.upper > p.lower, p.upper - p.lower, 1.0)
-    chosen = list(exclude)
+    points = np.array([x for _, x in search.history])
+    order = np.argsort([loss for loss, _ in search.history], kind="stable")
+    far = np.ones(len(points), dtype=bool)
+    for c in exclude:
+        far &= np.max(np.abs((points - c) / width), axis=1) > 0.1
     out = []
-    for _, x in sorted(search.history, key=lambda t: t[0]):
-        if len(out) >= count:
+    while len(out) < count:
+        left = order[far[order]]
+        if not left.size:
             break
-        if all(np.max(np.abs((x - c) / width)) > 0.1 for c in chosen):
-            chosen.append(x)
-            out.append(x)
+        out.append(search.history[left[0]][1])
+        far &= np.max(np.abs((points - out[-1]) / width), axis=1) > 0.1
     return out
