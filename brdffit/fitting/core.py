@@ -75,7 +75,7 @@ def fit(data, model, **options) -> FitResult:
         what each means: ``loss``, ``weights``, ``fixed``, ``free``, ``start``,
         ``global_algorithm``, ``local_algorithm``, ``global_evals``,
         ``local_evals``, ``restarts``, ``max_evals``, ``timeout``, ``seed``,
-        ``coarse_above``, ``subsample``, ``energy_conserving``, ``progress``,
+        ``coarse_above``, ``coarse_samples``, ``energy_conserving``, ``progress``,
         ``uncertainty``, ``posterior_options``.
 
     Returns

@@ -4,7 +4,7 @@ Above :attr:`~brdffit.fitting.options.FitOptions.coarse_above` samples (a full
 MERL file has 1.1 million above the horizon) every evaluation of the objective
 on all the data costs milliseconds, and a fit makes hundreds. The schedule
 therefore runs the global stage and the local polishes on a seeded subsample of
-:attr:`~brdffit.fitting.options.FitOptions.subsample` samples, stratified over
+:attr:`~brdffit.fitting.options.FitOptions.coarse_samples` samples, stratified over
 the half and difference angles ``theta_h`` and ``theta_d`` (Rusinkiewicz 1998,
 "A new change of variables for efficient BRDF representation", Eurographics
 Workshop on Rendering: the coordinates in which a BRDF's features, the specular

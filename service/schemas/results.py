@@ -118,7 +118,7 @@ class OptionsOut(BaseModel):
         description="Samples above which the search ran coarse to fine (a stratified "
         "subsample, then one polish on all).",
     )
-    subsample: int = Field(20_000, description="Samples of the coarse-to-fine subsample.")
+    coarse_samples: int = Field(20_000, description="Samples of the coarse-to-fine subsample.")
     energy_conserving: bool = Field(description="Albedo held at most 1 at every incidence.")
     weights: WeightsOut | None = Field(description="A summary of the weights; null: none.")
 

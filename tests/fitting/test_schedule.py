@@ -21,7 +21,7 @@ from brdffit.fitting.schedule import BINS, stratified_rows, subproblem
 
 WARD = {"kd": [0.1, 0.2], "ks": [0.3, 0.5], "alpha": 0.12}
 #: The schedule on a small problem: 6000 samples searched on a subsample of 1500.
-SMALL_SCHEDULE = {"coarse_above": 4000, "subsample": 1500}
+SMALL_SCHEDULE = {"coarse_above": 4000, "coarse_samples": 1500}
 
 
 @pytest.fixture(scope="module")
@@ -150,7 +150,7 @@ def test_large_data_run_coarse_to_fine_and_answer_the_full_minimum(ward_data):
     staged = fit(ward_data, "ward", loss="l2", **SMALL_SCHEDULE)
     assert "coarse to fine" not in full.message
     assert "coarse to fine: " in staged.message and "of the 6,000 samples" in staged.message
-    assert staged.options["coarse_above"] == 4000 and staged.options["subsample"] == 1500
+    assert staged.options["coarse_above"] == 4000 and staged.options["coarse_samples"] == 1500
     assert staged.converged and staged.n_samples == 6000
     assert staged.params["alpha"] == pytest.approx(full.params["alpha"], rel=1e-5)
     assert np.allclose(staged.params["ks"], full.params["ks"], rtol=1e-5)
@@ -173,7 +173,7 @@ def test_coarse_to_fine_with_the_default_loss_weights_and_a_start(ward_data):
 
 def test_small_data_run_as_without_the_schedule(ward_data):
     """At or below coarse_above (and by default, at or below 50,000 samples) nothing changes."""
-    at = fit(ward_data, "ward", loss="l2", coarse_above=6000, subsample=1500)
+    at = fit(ward_data, "ward", loss="l2", coarse_above=6000, coarse_samples=1500)
     off = fit(ward_data, "ward", loss="l2", coarse_above=10**9)
     assert at.n_evals == off.n_evals and at.loss == off.loss
     assert at.params["alpha"] == off.params["alpha"]
@@ -192,8 +192,8 @@ def test_a_budget_used_up_on_the_subsample_still_answers_on_all_samples(ward_dat
 @pytest.mark.parametrize(
     ("name", "value", "needs"),
     [
-        ("subsample", 999, "a whole number >= 1000"),
-        ("subsample", 2.5e4, "a whole number >= 1000"),
+        ("coarse_samples", 999, "a whole number >= 1000"),
+        ("coarse_samples", 2.5e4, "a whole number >= 1000"),
         ("coarse_above", -1, "a whole number >= 0"),
         ("coarse_above", True, "a whole number >= 0"),
     ],
@@ -206,7 +206,7 @@ def test_schedule_options_are_checked(ward_data, name, value, needs):
 
 def test_a_subsample_larger_than_the_data_is_all_the_data():
     data = make_data("blinn", {"kd": 0.2, "ks": 1.0, "n": 40.0}, n=1200, seed=3)
-    staged = fit(data, "blinn", loss="l2", coarse_above=1000, subsample=5000)
+    staged = fit(data, "blinn", loss="l2", coarse_above=1000, coarse_samples=5000)
     plain = fit(data, "blinn", loss="l2", coarse_above=10**9)
     assert isinstance(staged.n_samples, int) and "coarse to fine" not in staged.message
     assert staged.n_evals == plain.n_evals
