@@ -4,7 +4,9 @@ The benchmark writes a full MERL file (every cell of the 90 x 90 x 180 table,
 1.1 M cells above the horizon, RGB) from a known truth (``cook_torrance`` with
 coloured ``kd`` and ``ks`` and 1 % seeded relative noise) with brdffit's MERL
 writer, then fits it with each model (default: blinn, ward, cook_torrance, ggx)
-by ``brdffit.fit`` with its defaults, each fit in a fresh Python process:
+by ``brdffit.fit`` with ``loss`` (``--loss``, default ``l2``: today's engine's
+default for data without sigma; ``--loss default`` leaves each tree its own
+default), each model in a fresh Python process per tree:
 
 - ``old``: the tree of ``--old`` (a path, e.g. a worktree of today's commit made
   with ``git worktree add /tmp/brdffit-old <commit>``) first on ``PYTHONPATH``;
@@ -12,11 +14,19 @@ by ``brdffit.fit`` with its defaults, each fit in a fresh Python process:
 
 Each figure is the median over ``--repeats`` runs (old and new alternate) of the
 CPU time of the fit alone (``time.process_time`` around ``brdffit.fit``, the file
-already read) and the process's peak resident memory (``ru_maxrss``, the whole
-process: interpreter, file, fit). The parameters of the two are compared (largest
-relative difference over every parameter and channel; the issue asks for 0.1 %).
+already read): ``cold``, the process's first fit (it loads or compiles the
+compiled kernels), and ``warm``, a second fit of the file read again (a user
+fitting several models or files in one process); and of the process's peak
+resident memory after the first fit (``ru_maxrss``, the whole process: interpreter,
+file, fit).
+The parameters of the two are compared (largest relative difference over every
+parameter and channel; the issue asks for 0.1 %).
 
     python benchmarks/bench_merl.py --old /tmp/brdffit-old [--models ggx] [--repeats 3]
+
+``--threshold`` times the search alone (global stage and polishes) on random subsets
+of 25,000 to 200,000 samples of the file, on all samples and coarse to fine, in
+this tree: what the default of ``FitOptions.coarse_above`` was chosen by.
 """
 
 from __future__ import annotations
@@ -48,27 +58,35 @@ def write_file(path: Path) -> None:
     brdffit.write(str(path), data, format="merl")
 
 
-def worker(path: str, model: str) -> None:
-    """One fit in this process; prints its CPU time, peak memory and parameters."""
+def worker(path: str, model: str, loss: str) -> None:
+    """Two fits in this process (cold, warm); prints their CPU times, the peak memory,
+    and the parameters, evaluations and message of the first."""
     import brdffit
 
-    data = brdffit.read(path)
-    start = time.process_time()
-    result = brdffit.fit(data, model)
-    seconds = time.process_time() - start
-    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    options = {} if loss == "default" else {"loss": loss}
+    seconds, results = [], []
+    for _ in range(2):
+        data = brdffit.read(path)
+        start = time.process_time()
+        results.append(brdffit.fit(data, model, **options))
+        seconds.append(time.process_time() - start)
+        if len(results) == 1:  # the peak of one fit (the second may add its garbage)
+            peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    result = results[0]
     params = {k: np.atleast_1d(v).tolist() for k, v in result.params.items()}
     tree = str(Path(brdffit.__file__).parents[1])
-    print(json.dumps({"tree": tree, "seconds": seconds, "peak_mb": peak_mb, "params": params,
-                      "loss": float(result.loss), "samples": int(data.n)}))  # fmt: skip
+    print(json.dumps({"tree": tree, "seconds": seconds[0], "warm": seconds[1],
+                      "peak_mb": peak_mb, "params": params, "loss": float(result.loss),
+                      "samples": int(data.n), "evals": int(result.n_evals),
+                      "message": result.message, "loss_name": result.loss_name}))  # fmt: skip
 
 
-def run(tree: Path, path: Path, model: str) -> dict:
+def run(tree: Path, path: Path, model: str, loss: str) -> dict:
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1",
            "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}  # fmt: skip
     code = (
         f"import sys; sys.path.insert(0, {str(HERE)!r}); import bench_merl; "
-        f"bench_merl.worker({str(path)!r}, {model!r})"
+        f"bench_merl.worker({str(path)!r}, {model!r}, {loss!r})"
     )
     # cwd: the file's folder, so that no brdffit in the working directory shadows the tree
     out = subprocess.run(
@@ -82,6 +100,35 @@ def run(tree: Path, path: Path, model: str) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def threshold(path: Path, models: list, repeats: int) -> None:
+    """The search alone (global stage and polishes) on random subsets of the file, all
+    samples against coarse to fine (``coarse_above`` 0 and 10**9), in this process."""
+    import brdffit
+    from brdffit.fitting import core, engine
+
+    full = brdffit.read(str(path))
+    brdffit.fit(full.subset(np.arange(0, full.n, 50)), models[0], loss="l2")  # load kernels
+    rng = np.random.default_rng(0)
+    print("| samples | model | search on all, CPU s | coarse to fine, CPU s | evaluations |")
+    print("| ---: | --- | ---: | ---: | --- |")
+    for n in (25_000, 50_000, 100_000, 200_000):
+        data = full.subset(np.sort(rng.choice(full.n, n, replace=False)))
+        for model in models:
+            cpu, evals = {}, {}
+            for label, above in (("all", 10**9), ("staged", 0)):
+                times = []
+                for _ in range(repeats):
+                    fresh = data.subset(np.arange(data.n))  # no geometry caches
+                    options = {"loss": "l2", "coarse_above": above}
+                    opts, problem, x0 = core._prepare(fresh, model, options)
+                    start = time.process_time()
+                    found, _ = engine.search(problem, opts, x0, False, time.perf_counter())
+                    times.append(time.process_time() - start)
+                cpu[label], evals[label] = statistics.median(times), found.n_evals
+            print(f"| {n} | {model} | {cpu['all']:.3f} | {cpu['staged']:.3f} | "
+                  f"{evals['all']}/{evals['staged']} |", flush=True)  # fmt: skip
+
+
 def largest_difference(a: dict, b: dict) -> float:
     """Largest relative difference of any parameter value of ``b`` from ``a``."""
     worst = 0.0
@@ -93,39 +140,61 @@ def largest_difference(a: dict, b: dict) -> float:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--old", required=True, help="path of today's tree (a worktree)")
+    parser.add_argument("--old", help="path of today's tree (a worktree); needed unless "
+                        "--threshold")  # fmt: skip
     parser.add_argument("--models", default=",".join(MODELS))
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--loss", default="l2", help="a loss name, or 'default'")
+    parser.add_argument("--threshold", action="store_true",
+                        help="time the search alone on subsets, with and without the "
+                        "coarse-to-fine schedule (this tree only; --old is ignored)")  # fmt: skip
     args = parser.parse_args(argv)
+    if args.threshold:
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "truth.binary"
+            write_file(path)
+            threshold(path, args.models.split(","), args.repeats)
+        print(f"\nCommand: python {' '.join(sys.argv)}")
+        return 0
+    if args.old is None:
+        parser.error("--old is needed (the path of today's tree)")
     old = Path(args.old).resolve()
     if not (old / "brdffit" / "__init__.py").is_file():
         return f"bench_merl: {old} has no brdffit package"
     with open("/proc/loadavg") as handle:
         load = " ".join(handle.read().split()[:3])
     print("# Whole-MERL fits, today's engine and this tree (one core each)\n")
+    notes = []
     print(f"- old tree: {old}; new tree: {ROOT}; load average at start: {load}")
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "truth.binary"
         write_file(path)
         print(f"- file: {path.stat().st_size / 1e6:.0f} MB; truth cook_torrance {TRUTH}\n")
-        print("| model | old CPU s | new CPU s | speed-up | old peak MB | new peak MB "
-              "| max param diff | old loss | new loss |")  # fmt: skip
-        print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        print(f"- loss: {args.loss}\n")
+        print("| model | old CPU s | new CPU s | speed-up | old warm s | new warm s | warm "
+              "speed-up | old peak MB | new peak MB | max param diff | old loss | new loss "
+              "| evals old/new |")  # fmt: skip
+        print("| --- |" + " ---: |" * 11 + " --- |")
         for model in args.models.split(","):
             runs = {"old": [], "new": []}
             for _ in range(args.repeats):
-                runs["old"].append(run(old, path, model))
-                runs["new"].append(run(ROOT, path, model))
+                runs["old"].append(run(old, path, model, args.loss))
+                runs["new"].append(run(ROOT, path, model, args.loss))
             o, n = runs["old"][0], runs["new"][0]
             assert Path(o["tree"]) == old and Path(n["tree"]) == ROOT, (o["tree"], n["tree"])
             t_old = statistics.median(r["seconds"] for r in runs["old"])
             t_new = statistics.median(r["seconds"] for r in runs["new"])
+            w_old = statistics.median(r["warm"] for r in runs["old"])
+            w_new = statistics.median(r["warm"] for r in runs["new"])
             m_old = statistics.median(r["peak_mb"] for r in runs["old"])
             m_new = statistics.median(r["peak_mb"] for r in runs["new"])
             diff = largest_difference(o["params"], n["params"])
             print(f"| {model} | {t_old:.2f} | {t_new:.2f} | {t_old / t_new:.1f}x | "
-                  f"{m_old:.0f} | {m_new:.0f} | {diff:.1e} | {o['loss']:.6g} | "
-                  f"{n['loss']:.6g} |", flush=True)  # fmt: skip
+                  f"{w_old:.2f} | {w_new:.2f} | {w_old / w_new:.1f}x | "
+                  f"{m_old:.0f} | {m_new:.0f} | {diff:.1e} | {o['loss']:.8g} | "
+                  f"{n['loss']:.8g} | {o['evals']}/{n['evals']} |", flush=True)  # fmt: skip
+            notes.append(f"- {model}, new: {n['loss_name']}; {n['message']}")
+    print("\n" + "\n".join(notes))
     print(f"\nCommand: python {' '.join(sys.argv)}")
     return 0
 

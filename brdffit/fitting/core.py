@@ -75,8 +75,8 @@ def fit(data, model, **options) -> FitResult:
         what each means: ``loss``, ``weights``, ``fixed``, ``free``, ``start``,
         ``global_algorithm``, ``local_algorithm``, ``global_evals``,
         ``local_evals``, ``restarts``, ``max_evals``, ``timeout``, ``seed``,
-        ``energy_conserving``, ``progress``, ``uncertainty``,
-        ``posterior_options``.
+        ``coarse_above``, ``coarse_samples``, ``energy_conserving``, ``progress``,
+        ``uncertainty``, ``posterior_options``.
 
     Returns
     -------
@@ -262,7 +262,10 @@ def _result(
     y = np.asarray(data.values)
     ctx = LossContext(cos_i=np.maximum(data.wi[:, 2], 0.0), y=y, sigma=data.sigma, weights=None)
     n_params = problem.dim + len(problem.free_coefs) * problem.n_channels
-    metrics = metrics_of(problem.predict(params), y, ctx, n_params)
+    pred = problem.predict(params)  # held while exact_loss shares it (Problem.predict)
+    metrics = metrics_of(pred, y, ctx, n_params)
+    loss = problem.exact_loss(params)
+    del pred
     converged = code in CONVERGED and found.best.loss < BAD_LOSS and not found.stopped
     at_bounds = _at_bounds(problem, found.best_x if problem.dim else (), params)
     deadline = None if opts.timeout is None else (perf_counter() - seconds) + opts.timeout
@@ -272,13 +275,15 @@ def _result(
         message += "; at a bound of its range: " + ", ".join(at_bounds)
     if unidentified:
         message += "; not identified by the data: " + ", ".join(unidentified)
+    if found.schedule:
+        message += "; " + found.schedule
     if energy is not None:
         metrics["max_albedo"] = energy.top
         message += energy.note()
     return FitResult(
         model=problem.model.name,
         params=params,
-        loss=problem.exact_loss(params),
+        loss=loss,
         loss_name=problem.loss.name,
         metrics=metrics,
         n_samples=data.n,

@@ -9,6 +9,10 @@ then local polishes.
    point, from the user's ``start`` if given, and from ``restarts`` further
    distinct good points of the global stage; the best polished point wins.
 
+Above ``coarse_above`` samples the coarse-to-fine schedule of
+:mod:`brdffit.fitting.schedule` runs both stages on a stratified subsample and
+then one polish on every sample from the subsample's best point.
+
 The objective never returns NaN (nlopt hangs on NaN with some algorithms; a
 shape the model cannot take gets :data:`~brdffit.fitting.problem.BAD_LOSS`),
 the search never outlives its budget or deadline, and it stops when a
@@ -27,6 +31,7 @@ import numpy as np
 
 from ..errors import FitError
 from .problem import BAD_LOSS, Problem
+from .schedule import FINE_STEP, note, stratified_rows, subproblem
 
 __all__ = [
     "CONVERGED",
@@ -96,6 +101,8 @@ class Search:
         self.stopped = ""
         self.opt = None
         self.error: BaseException | None = None
+        #: The coarse-to-fine schedule in words ("" when the search ran on all samples).
+        self.schedule = ""
 
     def __call__(self, x, grad=None):
         if self.stopped == STOPPED:
@@ -141,8 +148,9 @@ class Search:
         if answer is False:
             self.stopped = STOPPED
 
-    def run(self, algorithm: str, x0, budget: int, stage: str) -> int | None:
-        """Run one nlopt stage; return nlopt's result code (None if it could not start)."""
+    def run(self, algorithm: str, x0, budget: int, stage: str, step=None) -> int | None:
+        """Run one nlopt stage; return nlopt's result code (None if it could not start).
+        ``step``: a local algorithm's initial step, as a share of each range."""
         if not self.stopped and self.n_evals >= self.max_evals:
             self.stopped = BUDGET
         elif not self.stopped and time.perf_counter() > self.deadline:
@@ -150,7 +158,7 @@ class Search:
         if self.stopped:
             return None
         self.stage = stage
-        opt = self.opt = _optimiser(algorithm, self.problem)
+        opt = self.opt = _optimiser(algorithm, self.problem, step)
         opt.set_min_objective(self)
         opt.set_maxeval(int(min(budget, self.max_evals - self.n_evals)))
         opt.set_maxtime(max(self.deadline - time.perf_counter(), 1e-3))
@@ -180,9 +188,10 @@ class Search:
         return code
 
 
-def _optimiser(algorithm: str, problem: Problem):
+def _optimiser(algorithm: str, problem: Problem, step=None):
     """An nlopt optimiser of ``algorithm`` on the problem's box, with the stage's
-    tolerances (the global stage runs to its budget; the polish to 1e-7 in x)."""
+    tolerances (the global stage runs to its budget; the polish to 1e-7 in x, its
+    initial step ``step`` of each range, 0.05 by default)."""
     opt = nlopt.opt(getattr(nlopt, algorithm), problem.dim)
     opt.set_lower_bounds(problem.lower)
     opt.set_upper_bounds(problem.upper)
@@ -195,7 +204,7 @@ def _optimiser(algorithm: str, problem: Problem):
     else:
         opt.set_xtol_rel(1e-7)
         opt.set_ftol_rel(1e-12)
-        opt.set_initial_step(0.05 * (problem.upper - problem.lower))
+        opt.set_initial_step((0.05 if step is None else step) * (problem.upper - problem.lower))
     return opt
 
 
@@ -209,6 +218,8 @@ def search(problem: Problem, options, x_start, have_start: bool, t0: float):
     if problem.dim == 0:
         main.evaluate(np.zeros(0))
         return main, nlopt.SUCCESS
+    if problem.geometry.m > max(options.coarse_above, options.coarse_samples):
+        return _coarse_to_fine(main, options, x_start, have_start)
     starts = [x_start] if (have_start or options.global_algorithm is None) else []
     if options.global_algorithm is not None:
         scout = _scout(main, options)
@@ -253,6 +264,29 @@ def _scout(main: Search, options) -> Search:
     return Search(sub, main.max_evals, main.deadline, main.progress, main.t0)
 
 
+def _coarse_to_fine(main: Search, options, x_start, have_start: bool):
+    """The search of :mod:`~brdffit.fitting.schedule`: both stages on a stratified
+    subsample, then one polish on every sample from the subsample's best point."""
+    p = main.problem
+    sub_problem = subproblem(p, stratified_rows(p.geometry, options.coarse_samples, options.seed))
+    sub = Search(sub_problem, main.max_evals, main.deadline, main.progress, main.t0)
+    starts = [x_start] if (have_start or options.global_algorithm is None) else []
+    if options.global_algorithm is not None:
+        sub.run(options.global_algorithm, x_start, options.global_evals, "global")
+        if sub.best is not None:
+            starts.append(sub.best_x.copy())
+        starts += _distinct_starts(sub, options.restarts, starts)
+    _polish(sub, starts, options.local_algorithm, options.local_evals)
+    _absorb(main, sub)
+    x0 = sub.best_x if sub.best is not None else x_start
+    code = main.run(options.local_algorithm, x0, options.local_evals, "local on all samples",
+                    FINE_STEP)  # fmt: skip
+    if main.best is None and sub.best is not None:
+        main.evaluate(sub.best_x)  # the subsample's search used up the budget or time
+    main.schedule = note(sub_problem, p, sub.n_evals, main.n_evals - sub.n_evals)
+    return main, code
+
+
 def _absorb(main: Search, scout: Search):
     """Take over the scout's counts and stop reason (its losses are on another sample set)."""
     if scout is main:
@@ -265,15 +299,22 @@ def _absorb(main: Search, scout: Search):
 
 def _distinct_starts(search: Search, count: int, exclude: list) -> list:
     """Up to ``count`` good points of the history, each at least 0.1 of the box away
-    (in the search space) from every point already chosen."""
+    (in the search space) from every point already chosen: in the order of their
+    losses, the first far enough from ``exclude`` and from those chosen before it."""
+    if count <= 0 or not search.history:
+        return []
     p = search.problem
     width = np.where(p.upper > p.lower, p.upper - p.lower, 1.0)
-    chosen = list(exclude)
+    points = np.array([x for _, x in search.history])
+    order = np.argsort([loss for loss, _ in search.history], kind="stable")
+    far = np.ones(len(points), dtype=bool)
+    for c in exclude:
+        far &= np.max(np.abs((points - c) / width), axis=1) > 0.1
     out = []
-    for _, x in sorted(search.history, key=lambda t: t[0]):
-        if len(out) >= count:
+    while len(out) < count:
+        left = order[far[order]]
+        if not left.size:
             break
-        if all(np.max(np.abs((x - c) / width)) > 0.1 for c in chosen):
-            chosen.append(x)
-            out.append(x)
+        out.append(search.history[left[0]][1])
+        far &= np.max(np.abs((points - out[-1]) / width), axis=1) > 0.1
     return out

@@ -43,6 +43,14 @@ DEFAULT_LOCAL = "LN_BOBYQA"
 SEED_LIMIT = 2**32
 #: Evaluations when no cap is given.
 NO_CAP = 10**9
+#: Default ``coarse_samples``: samples of the coarse-to-fine schedule's subsample.
+COARSE_SAMPLES = 20_000
+#: Default ``coarse_above``: above this many samples the coarse-to-fine schedule runs
+#: (measured on random subsets of a MERL file, benchmarks/README.md: at 25,000 samples
+#: the schedule's search costs what the search on all samples does, from 50,000 less).
+COARSE_ABOVE = 50_000
+#: The smallest ``coarse_samples``: fewer samples would not show a narrow highlight.
+MIN_COARSE_SAMPLES = 1000
 
 _RECORD = {"record": True}
 
@@ -87,6 +95,17 @@ class FitOptions:
     seed : int
         Seeds nlopt's stochastic algorithms and the subsample of large data;
         the same seed gives the same result. 0 <= seed < 2**32.
+    coarse_above : int
+        Samples above the horizon above which the coarse-to-fine schedule runs
+        (>= 0; :mod:`brdffit.fitting.schedule`): the global stage and the polishes
+        on a seeded subsample of ``coarse_samples`` samples stratified over
+        ``(theta_h, theta_d)``, then one polish on all the samples, whose minimum
+        the answer is; the result's message says so. At or below it the fit runs
+        as without the schedule (every polish on all the samples; the global
+        stage scouts a uniform 20,000 of more than 20,000 samples).
+    coarse_samples : int
+        Samples of the coarse-to-fine schedule's subsample (>= 1000). (Not
+        :func:`brdffit.read`'s ``subsample``, which keeps every k-th MERL cell.)
     energy_conserving : bool
         Constrain the directional albedo to at most 1 at every incidence angle
         from 0 to 89 degrees: enforced exactly on the linear coefficients at
@@ -121,6 +140,8 @@ class FitOptions:
     max_evals: int | None = field(default=None, metadata=_RECORD)
     timeout: float | None = field(default=None, metadata=_RECORD)
     seed: int = field(default=0, metadata=_RECORD)
+    coarse_above: int = field(default=COARSE_ABOVE, metadata=_RECORD)
+    coarse_samples: int = field(default=COARSE_SAMPLES, metadata=_RECORD)
     energy_conserving: bool = field(default=False, metadata=_RECORD)
     progress: Callable | None = None
     uncertainty: bool = False
@@ -160,6 +181,8 @@ class FitOptions:
             max_evals=_whole(self.max_evals, "max_evals", 1, optional=True),
             restarts=_whole(self.restarts, "restarts", 0),
             seed=_whole(self.seed, "seed", 0, below=SEED_LIMIT),
+            coarse_samples=_whole(self.coarse_samples, "coarse_samples", MIN_COARSE_SAMPLES),
+            coarse_above=_whole(self.coarse_above, "coarse_above", 0),
             free=tuple(self.free),
         )
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any
 
@@ -13,6 +13,7 @@ import numpy as np
 from ..jsonable import jsonable
 from ..words import plural
 from .losses import LOSSES, LossContext
+from .sums import loss_sums
 
 __all__ = ["FitResult", "metrics_of"]
 
@@ -178,25 +179,22 @@ def _fmt(value) -> str:
 
 
 def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int) -> dict:
-    """Every loss, RMSE, AIC and BIC of predictions ``pred`` (N, C) against ``y``.
+    """Every loss, RMSE, AIC and BIC of predictions ``pred`` (N, C) against ``y``
+    (``ctx.y``), from the sums of :func:`brdffit.fitting.sums.loss_sums` (one pass
+    over cache-sized blocks; the RMSE is the root of the unweighted mean square).
 
     AIC and BIC use the Gaussian likelihood: with per-sample sigma,
     ``-2 ln L = chi2 + const``, so ``AIC = chi2 + 2k``, ``BIC = chi2 + k ln n``;
     without sigma, an unknown common variance is profiled out:
     ``AIC = n ln(RSS/n) + 2k``, ``BIC = n ln(RSS/n) + k ln n`` (n observations,
-    k fitted parameters). Only differences between models on the same data mean
-    anything.
+    k fitted parameters; Burnham and Anderson 2002, "Model Selection and
+    Multimodel Inference", Springer, sec. 2.2). Only differences between models
+    on the same data mean anything.
     """
-    out = {}
-    for name, loss in LOSSES.items():
-        if (loss.needs_sigma and ctx.sigma is None) or (
-            loss.needs_noise and ctx.noise_sigma is None
-        ):
-            continue
-        out[name] = loss.value(pred, ctx)
-    resid = pred - y
-    n = y.size
-    rss = float(np.sum(resid * resid))
+    sums = loss_sums(pred, replace(ctx, y=y))
+    n = np.size(y)
+    rss = sums.pop("rss")
+    out = {name: total if LOSSES[name].is_sum else total / n for name, total in sums.items()}
     out["rmse"] = math.sqrt(rss / n)
     if ctx.sigma is not None:
         base = out["chi2"]

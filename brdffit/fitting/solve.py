@@ -86,11 +86,20 @@ def _predict(a, offset, coefs, m, c):
 def compact_weights(w: np.ndarray, z: np.ndarray):
     """Weights that are the same for every channel as (M,), all ones as None: the
     normal equations are then much cheaper to build."""
-    if w.ndim == 2 and (w.shape[1] == 1 or np.array_equal(w, np.broadcast_to(w[:, :1], w.shape))):
+    if w.ndim == 2 and (w.shape[1] == 1 or _same_in_every_channel(w)):
         w = w[:, 0]
     if w.ndim == 1 and np.all(w == 1.0):
         w = None
     return w, z
+
+
+def _same_in_every_channel(w: np.ndarray) -> bool:
+    """Whether every row of ``w`` (M, C) holds one value; the first rows are compared
+    first (weights that differ by channel, as the log loss's, differ there at once)."""
+    head = w[:64]
+    if not np.array_equal(head, np.broadcast_to(head[:, :1], head.shape)):
+        return False
+    return np.array_equal(w, np.broadcast_to(w[:, :1], w.shape))
 
 
 def as_2d(a):

@@ -113,6 +113,12 @@ class OptionsOut(BaseModel):
     max_evals: int = Field(description="Cap on all evaluations.")
     timeout: MaybeFloat = Field(description="Seconds the fit could run; null: no limit.")
     seed: int = Field(description="The seed (same seed, same result).")
+    coarse_above: int = Field(
+        50_000,
+        description="Samples above which the search ran coarse to fine (a stratified "
+        "subsample, then one polish on all).",
+    )
+    coarse_samples: int = Field(20_000, description="Samples of the coarse-to-fine subsample.")
     energy_conserving: bool = Field(description="Albedo held at most 1 at every incidence.")
     weights: WeightsOut | None = Field(description="A summary of the weights; null: none.")
 

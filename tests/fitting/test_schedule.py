@@ -1,0 +1,224 @@
+"""The coarse-to-fine schedule of large fits, the prediction formed once, and the
+metrics from one residual (issue 13)."""
+
+from __future__ import annotations
+
+import gc
+import math
+import weakref
+
+import numpy as np
+import pytest
+from helpers import make_data
+
+from brdffit import FitError, Measurements, fit
+from brdffit.fitting import sums
+from brdffit.fitting.losses import LOSSES, LossContext
+from brdffit.fitting.options import COARSE_ABOVE
+from brdffit.fitting.problem import Problem
+from brdffit.fitting.result import metrics_of
+from brdffit.fitting.schedule import BINS, stratified_rows, subproblem
+
+WARD = {"kd": [0.1, 0.2], "ks": [0.3, 0.5], "alpha": 0.12}
+#: The schedule on a small problem: 6000 samples searched on a subsample of 1500.
+SMALL_SCHEDULE = {"coarse_above": 4000, "coarse_samples": 1500}
+
+
+@pytest.fixture(scope="module")
+def ward_data():
+    return make_data("ward", WARD, n=6000, channels=["r", "g"], seed=4)
+
+
+def _old_metrics(pred, y, ctx, n_params):
+    """The metrics as they were computed before issue 13: every loss's own value."""
+    out = {}
+    for name, loss in LOSSES.items():
+        if (loss.needs_sigma and ctx.sigma is None) or (
+            loss.needs_noise and ctx.noise_sigma is None
+        ):
+            continue
+        out[name] = loss.value(pred, ctx)
+    resid = pred - y
+    n = y.size
+    rss = float(np.sum(resid * resid))
+    out["rmse"] = math.sqrt(rss / n)
+    base = out["chi2"] if ctx.sigma is not None else n * math.log(max(rss, 1e-300) / n)
+    out["aic"] = base + 2 * n_params
+    out["bic"] = base + n_params * math.log(n)
+    return out
+
+
+@pytest.mark.parametrize("block", [16_384, 1000])
+@pytest.mark.parametrize("extras", ["none", "weights", "sigma and noise"])
+def test_metrics_from_one_residual_equal_the_old_formula(ward_data, extras, block, monkeypatch):
+    """The metrics summed over blocks of samples (several blocks with 1000) equal every
+    loss's own value on all the samples at once."""
+    monkeypatch.setattr(sums, "BLOCK", block)
+    result = fit(ward_data, "ward", loss="l2")
+    problem = Problem(ward_data, "ward")
+    pred = np.asarray(problem.predict(dict(result.params)))
+    y = np.asarray(ward_data.values)
+    rng = np.random.default_rng(1)
+    ctx = LossContext(
+        cos_i=np.maximum(ward_data.wi[:, 2], 0.0),
+        y=y,
+        sigma=0.01 + 0.05 * np.abs(y) if extras == "sigma and noise" else None,
+        weights=rng.uniform(0.0, 2.0, ward_data.n) if extras == "weights" else None,
+        noise_sigma=0.02 + 0.1 * np.abs(pred) if extras == "sigma and noise" else None,
+    )
+    new, old = metrics_of(pred, y, ctx, 7), _old_metrics(pred, y, ctx, 7)
+    assert sorted(new) == sorted(old)
+    assert len(old) >= 8
+    for name in old:
+        assert new[name] == pytest.approx(old[name], rel=1e-12, abs=1e-300), name
+
+
+class _Counting:
+    """A model that counts its evaluations."""
+
+    def __init__(self, model, calls):
+        self._model, self._calls = model, calls
+
+    def __getattr__(self, name):
+        return getattr(self._model, name)
+
+    def evaluate_prepared(self, *args, **kwargs):
+        self._calls.append(1)
+        return self._model.evaluate_prepared(*args, **kwargs)
+
+
+def test_the_prediction_at_the_same_params_is_formed_once(ward_data):
+    problem = Problem(ward_data, "ward")
+    params = {"kd": np.array([0.1, 0.2]), "ks": np.array([0.3, 0.5]), "alpha": 0.12}
+    first = problem.predict(params)
+    calls = []
+    problem.model = _Counting(problem.model, calls)
+    assert problem.predict(dict(params)) is first and not calls
+    assert not first.flags.writeable
+    moved = problem.predict({**params, "alpha": 0.12000000001})
+    assert calls == [1] and moved is not first
+    assert not np.array_equal(moved, first)
+    # A changed value in one channel is another prediction too.
+    other = problem.predict({**params, "ks": np.array([0.3, 0.5000001])})
+    assert calls == [1, 1] and not np.array_equal(other[:, 1], first[:, 1])
+    # The problem does not keep a prediction alive that no caller holds.
+    gone = weakref.ref(other)
+    del other
+    gc.collect()
+    assert gone() is None
+    problem.predict({**params, "ks": np.array([0.3, 0.5000001])})
+    assert calls == [1, 1, 1]
+
+
+def test_stratified_rows_keep_each_cell_share_and_the_seed():
+    data = make_data("ward", {"kd": 0.1, "ks": 0.3, "alpha": 0.12}, n=20000, seed=2)
+    g = data.geometry()
+    rows = stratified_rows(g, 2000, seed=5)
+    assert rows.size == 2000 and np.all(np.diff(rows) > 0) and rows[-1] < g.m
+    assert np.array_equal(rows, stratified_rows(g, 2000, seed=5))
+    assert not np.array_equal(rows, stratified_rows(g, 2000, seed=6))
+    # Every cell of the (theta_h, theta_d) grid within one sample of its share.
+    h = g.wi + g.wo
+    norm = np.linalg.norm(h, axis=1)
+    theta_h, theta_d = np.arccos(h[:, 2] / norm), np.arccos(np.clip(norm / 2, 0, 1))
+    cell = np.minimum((theta_h / (np.pi / 2) * BINS).astype(int), BINS - 1) * BINS
+    cell += np.minimum((theta_d / (np.pi / 2) * BINS).astype(int), BINS - 1)
+    share = np.bincount(cell, minlength=BINS * BINS) * (2000 / g.m)
+    drawn = np.bincount(cell[rows], minlength=BINS * BINS)
+    assert np.max(np.abs(drawn - share)) <= 1.0 + 1e-9
+    # A uniform draw of the same size misses the shares by far more.
+    uniform = np.random.default_rng(5).choice(g.m, 2000, replace=False)
+    assert np.max(np.abs(np.bincount(cell[uniform], minlength=BINS * BINS) - share)) > 3
+
+
+def test_subproblem_keeps_weights_noise_and_fixed_of_the_rows(ward_data):
+    weights = np.linspace(0.5, 2.0, ward_data.n)
+    problem = Problem(ward_data, "ward", loss="mixed", weights=weights, fixed={"alpha": 0.2})
+    problem = problem.reweighted(np.full((ward_data.n, 2), 3.0))
+    rows = np.array([0, 5, 17, 400])
+    index = np.flatnonzero(problem.geometry.valid)[rows]
+    sub = subproblem(problem, rows)
+    assert sub.data.n == 4 or sub.geometry.m == 4
+    assert np.array_equal(sub.data.values, ward_data.values[index])
+    assert np.array_equal(sub.user_weights, weights[index])
+    assert np.all(sub.noise_sigma == 3.0) and sub.fixed["alpha"] == 0.2
+    assert sub.loss.name == "mixed" and sub.energy is None
+
+
+def test_large_data_run_coarse_to_fine_and_answer_the_full_minimum(ward_data):
+    full = fit(ward_data, "ward", loss="l2", coarse_above=10**9)
+    staged = fit(ward_data, "ward", loss="l2", **SMALL_SCHEDULE)
+    assert "coarse to fine" not in full.message
+    assert "coarse to fine: " in staged.message and "of the 6,000 samples" in staged.message
+    assert staged.options["coarse_above"] == 4000 and staged.options["coarse_samples"] == 1500
+    assert staged.converged and staged.n_samples == 6000
+    assert staged.params["alpha"] == pytest.approx(full.params["alpha"], rel=1e-5)
+    assert np.allclose(staged.params["ks"], full.params["ks"], rtol=1e-5)
+    assert staged.loss == pytest.approx(full.loss, rel=1e-9)
+    for name in ("l2", "rmse", "aic"):
+        assert staged.metrics[name] == pytest.approx(full.metrics[name], rel=1e-9)
+
+
+def test_coarse_to_fine_with_the_default_loss_weights_and_a_start(ward_data):
+    """The mixed loss's reweighting rounds and user weights go through the schedule."""
+    weights = np.where(np.arange(ward_data.n) % 3 == 0, 0.0, 1.0)
+    options = {"weights": weights, "start": {"alpha": 0.3}}
+    full = fit(ward_data, "ward", coarse_above=10**9, **options)
+    staged = fit(ward_data, "ward", **SMALL_SCHEDULE, **options)
+    assert full.noise["model"] == staged.noise["model"] == "mixed"
+    assert "coarse to fine" in staged.message
+    assert staged.params["alpha"] == pytest.approx(full.params["alpha"], rel=1e-4)
+    assert staged.noise["b"] == pytest.approx(full.noise["b"], rel=1e-3)
+
+
+def test_small_data_run_as_without_the_schedule(ward_data):
+    """At or below coarse_above (and by default, at or below 50,000 samples) nothing changes."""
+    at = fit(ward_data, "ward", loss="l2", coarse_above=6000, coarse_samples=1500)
+    off = fit(ward_data, "ward", loss="l2", coarse_above=10**9)
+    assert at.n_evals == off.n_evals and at.loss == off.loss
+    assert at.params["alpha"] == off.params["alpha"]
+    default = fit(ward_data, "ward", loss="l2")
+    assert default.n_evals == off.n_evals and "coarse to fine" not in default.message
+    assert default.options["coarse_above"] == COARSE_ABOVE == 50_000
+
+
+def test_a_budget_used_up_on_the_subsample_still_answers_on_all_samples(ward_data):
+    result = fit(ward_data, "ward", loss="l2", max_evals=30, **SMALL_SCHEDULE)
+    assert not result.converged and "evaluation budget used up" in result.message
+    assert result.n_evals == 31  # the subsample's 30, and its best point on all samples
+    assert result.loss == pytest.approx(result.metrics["l2"], rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "needs"),
+    [
+        ("coarse_samples", 999, "a whole number >= 1000"),
+        ("coarse_samples", 2.5e4, "a whole number >= 1000"),
+        ("coarse_above", -1, "a whole number >= 0"),
+        ("coarse_above", True, "a whole number >= 0"),
+    ],
+)
+def test_schedule_options_are_checked(ward_data, name, value, needs):
+    with pytest.raises(FitError, match=f"{name}={value!r} must be {needs}") as info:
+        fit(ward_data, "ward", **{name: value})
+    assert info.value.field == name
+
+
+def test_a_subsample_larger_than_the_data_is_all_the_data():
+    data = make_data("blinn", {"kd": 0.2, "ks": 1.0, "n": 40.0}, n=1200, seed=3)
+    staged = fit(data, "blinn", loss="l2", coarse_above=1000, coarse_samples=5000)
+    plain = fit(data, "blinn", loss="l2", coarse_above=10**9)
+    assert isinstance(staged.n_samples, int) and "coarse to fine" not in staged.message
+    assert staged.n_evals == plain.n_evals
+
+
+def test_invalid_samples_are_left_out_of_the_subsample():
+    data = make_data("ward", {"kd": 0.1, "ks": 0.3, "alpha": 0.12}, n=6000, seed=6)
+    wo = np.array(data.wo)
+    wo[::4, 2] = -np.abs(wo[::4, 2])  # a quarter below the horizon
+    below = Measurements(data.wi, wo, data.values)
+    problem = Problem(below, "ward")
+    sub = subproblem(problem, stratified_rows(problem.geometry, 1500, seed=0))
+    assert sub.geometry.all_valid and sub.geometry.m == 1500
+    result = fit(below, "ward", loss="l2", **SMALL_SCHEDULE)
+    assert "of the 4,500 samples" in result.message and result.converged
