@@ -245,13 +245,16 @@ def ggx_d_anisotropic(tan2_h, cos_h, cos2_phi_h, alpha_u: float, alpha_v: float)
     return t
 
 
-def projected_alpha2(cos2_phi, alpha_u: float, alpha_v: float) -> np.ndarray:
+def projected_alpha2(cos2_phi, alpha_u, alpha_v) -> np.ndarray:
     """``alpha^2`` of an anisotropic distribution seen along a direction of azimuth
     phi: ``alpha_u^2 cos^2 phi + alpha_v^2 sin^2 phi`` (Heitz 2014, section 5.4).
 
-    With it, the isotropic Smith ``G1`` functions give the anisotropic ``G1``.
+    With it, the isotropic Smith ``G1`` functions give the anisotropic ``G1``. The
+    roughnesses may be arrays that broadcast against ``cos2_phi`` (one row per
+    walker, shape (W, 1)).
     """
-    a2 = np.multiply(cos2_phi, alpha_u * alpha_u - alpha_v * alpha_v, out=_new(cos2_phi))
+    diff = alpha_u * alpha_u - alpha_v * alpha_v
+    a2 = np.multiply(cos2_phi, diff, out=_new(cos2_phi, diff))
     a2 += alpha_v * alpha_v
     return a2
 

@@ -233,3 +233,25 @@ def test_the_normal_equations_cache_reuses_its_sums_and_lets_the_targets_go():
     del wy
     gc.collect()
     assert gone() is None and normal._constant_cache == []
+
+
+@pytest.mark.parametrize("name", ["ggx_anisotropic", "beckmann_anisotropic"])
+def test_the_anisotropic_numpy_designs_take_a_batch_of_shapes(name):
+    """The anisotropic GGX and Beckmann numpy designs (kernels off, under
+    MIN_PAIRS) take shape parameters of shape (W, 1), so the posterior evaluates
+    all walkers in one call (posterior/design.py; models that cannot are looped):
+    row w is the design at row w. Before, ``projected_alpha2`` wrote a (W, M)
+    product into an (M,) array and the sampler fell back to the loop."""
+    model = get_model(name)
+    wi, wo = hemisphere_pairs(200, seed=7)
+    geometry = Geometry(wi, wo)
+    rng = np.random.default_rng(stable_seed(name))
+    rows = [random_params(model, rng) for _ in range(3)]
+    names = [p.name for p in model.shape_params]
+    with kernels.use(False):
+        design = model.design(geometry, {k: np.array([[r[k]] for r in rows]) for k in names})
+        for w, row in enumerate(rows):
+            expected = model.design(geometry, {k: row[k] for k in names})
+            for got, want in zip(design.columns, expected.columns):
+                got = got[w] if np.ndim(got) == 2 else got
+                assert _relative(got, want) < 1e-12
