@@ -54,8 +54,39 @@ def _angles(data) -> tuple[np.ndarray, np.ndarray]:
     return theta_h, theta_d
 
 
-def _runs(z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Wald-Wolfowitz runs test of the signs of each column of ``z`` (M, C) in its order.
+#: Key of the two sample orders in :meth:`brdffit.data.geometry.Geometry.cached`.
+ORDERS_KEY = "misfit.orders"
+
+
+def _sort_orders(data) -> tuple[np.ndarray, np.ndarray]:
+    """Every sample's index, ordered by ``(theta_h, theta_d)`` and by ``(theta_d, theta_h)``.
+
+    ``np.lexsort`` is stable (ties of both angles keep the samples' order), so the
+    order of a subset of the samples is this order with the others left out.
+    """
+    theta_h, theta_d = _angles(data)
+    return np.lexsort((theta_d, theta_h)), np.lexsort((theta_h, theta_d))
+
+
+def _orders(data) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_sort_orders`, computed once per geometry: they depend on the
+    directions only, which a :class:`~brdffit.Measurements` never changes."""
+    geometry = getattr(data, "geometry", None)
+    if geometry is None:
+        return _sort_orders(data)
+    return geometry().cached(ORDERS_KEY, lambda: _sort_orders(data))
+
+
+def _sign_codes(z: np.ndarray) -> np.ndarray:
+    """The signs of ``z`` (N, C) as int8 rows (C, N): 2 above 0, 1 below (and NaN,
+    which ``> 0`` calls negative), 0 for an exact 0, which the runs test leaves out."""
+    codes = (z > 0).view(np.int8) + (z != 0).view(np.int8)
+    return np.ascontiguousarray(codes.T)
+
+
+def _runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Wald-Wolfowitz runs test of the signs of each row of ``codes`` (C, M) in its order
+    (:func:`_sign_codes`; zeros left out).
 
     Returns the runs counted, the runs expected of independent signs
     (``2 n+ n- / n + 1``), and ``z = (expected - counted) / sd`` with
@@ -65,12 +96,13 @@ def _runs(z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     matter.
     """
     out_r, out_mu, out_z = [], [], []
-    for col in z.T:
-        signs = col[col != 0] > 0
-        n = signs.size
-        n1 = int(signs.sum())
+    for row in codes:
+        if not row.all():
+            row = row[row != 0]
+        n = row.size
+        n1 = int(np.count_nonzero(row == 2))
         n2 = n - n1
-        runs = 1 + int(np.count_nonzero(signs[1:] != signs[:-1])) if n else 0
+        runs = 1 + int(np.count_nonzero(row[1:] != row[:-1])) if n else 0
         mu = 2.0 * n1 * n2 / max(n, 1) + 1.0
         var = 2.0 * n1 * n2 * (2.0 * n1 * n2 - n) / max(n * n * (n - 1), 1)
         out_r.append(runs)
@@ -86,19 +118,21 @@ def misfit_test(data, z: np.ndarray, keep: np.ndarray, n_params: int, chi2_known
     counted over runs expected, in the ordering and channel of the largest
     ``runs_z``), ``runs_z``, ``threshold_z``, ``ordered_by``, ``reduced_chi2``,
     ``chi2_tested``, ``refit_loss`` (None; see :func:`refit_on_misfit`) and a ``message``.
+    The two sample orders are sorted once per geometry (:func:`_orders`).
     """
-    theta_h, theta_d = _angles(data)
-    z, theta_h, theta_d = z[keep], theta_h[keep], theta_d[keep]
-    c = z.shape[1]
+    keep = np.asarray(keep, dtype=bool)
+    everything = bool(keep.all())
+    codes = _sign_codes(z)
+    if not everything:
+        codes[:, ~keep] = 0  # left out of the runs as exact zeros are: the orders stay whole
     best = (-np.inf, 1.0, "theta_h")
-    for name, order in (
-        ("theta_h", np.lexsort((theta_d, theta_h))),
-        ("theta_d", np.lexsort((theta_h, theta_d))),
-    ):
-        runs, expected, stat = _runs(z[order])
+    for name, order in zip(("theta_h", "theta_d"), _orders(data)):
+        runs, expected, stat = _runs(np.take(codes, order, axis=1))
         i = int(np.argmax(stat))
         if stat[i] > best[0]:
             best = (float(stat[i]), float(runs[i] / max(expected[i], 1.0)), name)
+    c = z.shape[1]
+    z = np.ascontiguousarray(z) if everything else np.compress(keep, z, axis=0)
     threshold = float(norm.isf(ALPHA / (2 * c)))
     dof = max(z.size - n_params, 1)
     reduced = float(np.sum(z * z) / dof)
