@@ -34,7 +34,9 @@ checks, run on every fit, name those parameters with the reason
    order of magnitude.
 
 The Jacobian is taken by central differences (one-sided at a bound) on the
-model's own evaluation, in the parameters as reported.
+model's own evaluation, in the parameters as reported. Above :data:`MAX_ENTRIES`
+it is formed on a seeded subset of the samples, the model evaluated on those
+pairs alone, and the information scaled back to all of them.
 """
 
 from __future__ import annotations
@@ -169,10 +171,11 @@ def _fisher(problem, params: dict, deadline=None) -> dict:
     if deadline is not None:
         deadline = max(deadline, time.perf_counter()) + GRACE
     rows = _rows(problem)
-    base = _predict(problem, params, rows)
+    geometry = _geometry(problem, rows)
+    base = _predict(problem, params, geometry)
     w, target = problem.loss.linearised(base, _context(problem, rows))
     w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], base.shape)
-    names, kinds, columns = _jacobian(problem, params, rows, base, deadline)
+    names, kinds, columns = _jacobian(problem, params, geometry, base, deadline)
     if not columns:
         return {}
     info = _information(columns, np.sqrt(w)) * (problem.geometry.m / len(rows))
@@ -224,19 +227,31 @@ def _context(problem, rows):
     return replace(ctx, **subset)
 
 
-def _predict(problem, params: dict, rows, deadline=None) -> np.ndarray:
-    """The model at the valid samples ``rows``, (M, C); _Late past the deadline."""
+def _geometry(problem, rows: np.ndarray):
+    """The geometry of the valid samples ``rows`` alone: the problem's own when they are
+    all of them, else a new one of those pairs, so that each evaluation of the check
+    costs ``len(rows)`` pairs, not ``M``."""
+    from ..data.geometry import Geometry
+
+    geometry = problem.geometry
+    if len(rows) == geometry.m:
+        return geometry
+    return Geometry(geometry.wi[rows], geometry.wo[rows], check=False)
+
+
+def _predict(problem, params: dict, geometry, deadline=None) -> np.ndarray:
+    """The model on ``geometry`` (:func:`_geometry`), (M, C); _Late past the deadline."""
     if deadline is not None and time.perf_counter() > deadline:
         raise _Late
-    values = np.asarray(problem.model.evaluate_prepared(problem.geometry, params, check=False))
-    if not problem.geometry.all_valid:
-        values = values[problem.geometry.valid]
+    values = np.asarray(problem.model.evaluate_prepared(geometry, params, check=False))
+    if not geometry.all_valid:
+        values = values[geometry.valid]
     if values.ndim == 1:
         values = np.repeat(values[:, None], problem.n_channels, axis=1)
-    return values[rows]
+    return values
 
 
-def _jacobian(problem, params: dict, rows, base, deadline=None) -> tuple:
+def _jacobian(problem, params: dict, geometry, base, deadline=None) -> tuple:
     """Names, kinds (``log``, ``linear`` shape; ``coef``) and Jacobian columns: (M, C)
     for shape parameters, ``(channel, (M,))`` for coefficients (:func:`_information`)."""
     names, kinds, columns = [], [], []
@@ -246,21 +261,22 @@ def _jacobian(problem, params: dict, rows, base, deadline=None) -> tuple:
         h = STEP * (1.0 if p.log_scale else hi - lo)
         up, down = min(x + h, hi), max(x - h, lo)
         values = [10.0**v if p.log_scale else v for v in (up, down)]
-        diff = _predict(problem, {**params, p.name: values[0]}, rows, deadline)
-        diff = diff - _predict(problem, {**params, p.name: values[1]}, rows, deadline)
+        diff = _predict(problem, {**params, p.name: values[0]}, geometry, deadline)
+        diff = diff - _predict(problem, {**params, p.name: values[1]}, geometry, deadline)
         names.append(p.name)
         kinds.append("log" if p.log_scale else "linear")
         columns.append(diff / (up - down))
     for p in problem.model.linear_params:
         if p.name not in problem.fixed:
-            for label, column in _coefficient_columns(problem, params, rows, base, p, deadline):
+            coefficients = _coefficient_columns(problem, params, geometry, base, p, deadline)
+            for label, column in coefficients:
                 names.append(label)
                 kinds.append("coef")
                 columns.append(column)
     return names, kinds, columns
 
 
-def _coefficient_columns(problem, params, rows, base, p, deadline):
+def _coefficient_columns(problem, params, geometry, base, p, deadline):
     """(label, column) of linear parameter ``p`` in each channel where it is inside
     its range (at a bound, the bound decides it). One evaluation serves every
     channel: a channel's values depend on its own linear parameters only."""
@@ -271,7 +287,7 @@ def _coefficient_columns(problem, params, rows, base, p, deadline):
         return
     h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
     shifted = value + h
-    diff = _predict(problem, {**params, p.name: _as_param(shifted)}, rows, deadline) - base
+    diff = _predict(problem, {**params, p.name: _as_param(shifted)}, geometry, deadline) - base
     for c in np.flatnonzero(inside):
         label = p.name if problem.n_channels == 1 else f"{p.name}[{problem.data.channels[c]}]"
         yield label, (int(c), diff[:, c] / h[c])

@@ -1,0 +1,65 @@
+"""The identifiability check evaluates the model on the samples it uses only (issue 13).
+
+On large data the Fisher check keeps a seeded subset of the samples
+(:data:`brdffit.fitting.identifiability.MAX_ENTRIES`). The first test failed before:
+every evaluation of its Jacobian ran on all the samples above the horizon and the
+subset was taken afterwards (on a whole MERL file, six evaluations of 1.1 M pairs).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import brdffit
+from brdffit.fitting import identifiability
+from brdffit.fitting.problem import Problem
+
+PARAMS = {"alpha": 0.2, "f0": 0.04, "kd": [0.3, 0.2, 0.1], "ks": [0.8, 0.7, 0.6]}
+
+
+@pytest.fixture(scope="module")
+def problem():
+    """20,000 random pairs of ggx in RGB, a tenth of them with wo below the horizon."""
+    rng = np.random.default_rng(1)
+    n = 20_000
+    angles = (rng.uniform(0, 89, n), rng.uniform(0, 360, n), rng.uniform(0, 100, n),
+              rng.uniform(0, 360, n))  # fmt: skip
+    with pytest.warns(UserWarning, match="negative"):
+        data = brdffit.synthesize("ggx", PARAMS, geometry=angles, noise=0.01)
+    return Problem(data, "ggx", loss="l2")
+
+
+def test_the_fisher_check_evaluates_the_model_on_its_subset_only(problem, monkeypatch):
+    # 2 shape + 2 x 3 coefficient columns, 3 channels: a subset of 1000 samples.
+    monkeypatch.setattr(identifiability, "MAX_ENTRIES", 8 * 3 * 1000)
+    rows = identifiability._rows(problem)
+    assert len(rows) == 1000 < problem.geometry.m
+    evaluated = []
+    model_type = type(problem.model)
+    original = model_type.evaluate_prepared
+
+    def spy(self, geometry, params, check=True):
+        evaluated.append(geometry.n)
+        return original(self, geometry, params, check)
+
+    monkeypatch.setattr(model_type, "evaluate_prepared", spy)
+    assert identifiability.unidentified(problem, PARAMS) == {}
+    # The base point, two per shape parameter, one per linear parameter.
+    assert evaluated == [len(rows)] * (1 + 2 * 2 + 2)
+
+
+def test_the_subset_geometry_gives_the_values_at_those_samples(problem, monkeypatch):
+    monkeypatch.setattr(identifiability, "MAX_ENTRIES", 8 * 3 * 1000)
+    rows = identifiability._rows(problem)
+    geometry = identifiability._geometry(problem, rows)
+    values = identifiability._predict(problem, PARAMS, geometry)
+    full = problem.model.evaluate_prepared(problem.geometry, PARAMS)[problem.geometry.valid]
+    assert values.shape == (len(rows), 3)
+    np.testing.assert_allclose(values, full[rows], rtol=1e-12, atol=0.0)
+
+
+def test_all_the_samples_use_the_problem_s_own_geometry(problem):
+    rows = identifiability._rows(problem)
+    assert len(rows) == problem.geometry.m
+    assert identifiability._geometry(problem, rows) is problem.geometry
