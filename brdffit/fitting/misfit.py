@@ -63,9 +63,15 @@ def _sort_orders(data) -> tuple[np.ndarray, np.ndarray]:
 
     ``np.lexsort`` is stable (ties of both angles keep the samples' order), so the
     order of a subset of the samples is this order with the others left out.
+    Kept as 32-bit indices where they fit: half the memory of the cache (a whole
+    MERL file's fit peaked past 600 MB with 64-bit ones).
     """
     theta_h, theta_d = _angles(data)
-    return np.lexsort((theta_d, theta_h)), np.lexsort((theta_h, theta_d))
+    kind = np.int32 if theta_h.size < 2**31 else np.intp
+    return tuple(
+        np.lexsort(keys).astype(kind, copy=False)
+        for keys in ((theta_d, theta_h), (theta_h, theta_d))
+    )
 
 
 def _orders(data) -> tuple[np.ndarray, np.ndarray]:
