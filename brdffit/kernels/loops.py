@@ -199,17 +199,10 @@ def cook_torrance_schlick(tan2_h, log_factor, weight, m2, f0, a, b, out):
 @jit
 def torrance_sparrow(theta2_h, log_factor, cos_d, m2, eta, a, b, out):
     """Torrance-Sparrow: ``exp(-theta_h^2/m^2)``, V-cavity ``G`` (in ``log_factor``, the
-    logarithm of ``G / (4 (N.L)(N.V))``) and the exact dielectric Fresnel factor."""
-    if a <= 0.0:
-        out[:] = b
-        return out
-    inv_m2 = 1.0 / m2
-    e2 = eta * eta
-    log_scale = math.log(0.5 * a)
-    for i in range(out.shape[0]):
-        fresnel = _twice_fresnel_dielectric(cos_d[i], e2)
-        out[i] = b + fresnel * fast_exp(log_scale + log_factor[i] - theta2_h[i] * inv_m2)
-    return out
+    logarithm of ``G / (4 (N.L)(N.V))``) and the exact dielectric Fresnel factor:
+    :func:`cook_torrance`'s loop with ``theta_h^2`` for ``tan^2`` and no ``1/m^2`` in
+    the scale (``a m^2`` cancels it)."""
+    return cook_torrance(theta2_h, log_factor, cos_d, m2, eta, a * m2, b, out)
 
 
 @jit
