@@ -9,9 +9,10 @@ source of truth:
 
 - a job accepted is in the store before it is submitted, and a restart of
   the service resubmits what was queued (``JobStore.recover``), as today;
-- cancelling deletes the row; the running fit notices at its next progress
-  report, and a late result of a deleted or resubmitted attempt is dropped by
-  the store (``finish`` only writes a *running* row of the same attempt);
+- cancelling marks the row ``cancelled`` and deleting removes it; the running
+  fit notices at its next progress report, and a late result of a cancelled,
+  deleted or resubmitted attempt is dropped by the store (``finish`` only
+  writes a *running* row of the same attempt);
 - a worker lost mid-job: Dask's scheduler runs the task again on another
   worker (up to ``distributed.scheduler.allowed-failures``). The rerun finds
   its attempt ``running``; it marks it interrupted and requeues it as a new
