@@ -199,24 +199,36 @@ def test_a_numba_that_fails_to_import_leaves_the_numpy_formulas(monkeypatch):
     np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
 
 
+def _batch_of_shapes(name: str, pairs: int, seed: int, walkers: int):
+    """A model, a geometry, ``walkers`` random shape parameter rows and those rows as
+    a batch of shape (walkers, 1) per parameter."""
+    model = get_model(name)
+    geometry = Geometry(*hemisphere_pairs(pairs, seed=seed))
+    rng = np.random.default_rng(stable_seed(name))
+    rows = [random_params(model, rng) for _ in range(walkers)]
+    names = [p.name for p in model.shape_params]
+    return model, geometry, rows, {k: np.array([[r[k]] for r in rows]) for k in names}
+
+
+def _assert_rows_are_designs(model, geometry, rows, design, tolerance: float) -> None:
+    """Row w of each column of ``design`` (or the column, when it is the same for every
+    row) is the design of ``rows[w]`` alone."""
+    names = [p.name for p in model.shape_params]
+    for w, row in enumerate(rows):
+        expected = model.design(geometry, {k: row[k] for k in names})
+        for got, want in zip(design.columns, expected.columns):
+            got = got[w] if np.ndim(got) == 2 else got
+            assert _relative(got, want) < tolerance
+
+
 @pytest.mark.parametrize("name", kernels.COMPILED_MODELS)
 def test_a_batch_of_shapes_gives_each_rows_design(name):
     """The posterior sampler asks for the designs of all walkers at once, shape
     parameters of shape (W, 1): row w of each column is the design at row w."""
-    model = get_model(name)
-    wi, wo = hemisphere_pairs(300, seed=6)
-    geometry = Geometry(wi, wo)
-    rng = np.random.default_rng(stable_seed(name))
-    rows = [random_params(model, rng) for _ in range(4)]
-    names = [p.name for p in model.shape_params]
-    batch = {k: np.array([[r[k]] for r in rows]) for k in names}
+    model, geometry, rows, batch = _batch_of_shapes(name, 300, 6, 4)
     design = model.design(geometry, batch)
-    for w, row in enumerate(rows):
-        with kernels.use(False):
-            expected = model.design(geometry, {k: row[k] for k in names})
-        for got, want in zip(design.columns, expected.columns):
-            got = got[w] if np.ndim(got) == 2 else got
-            assert _relative(got, want) < 1e-11
+    with kernels.use(False):
+        _assert_rows_are_designs(model, geometry, rows, design, 1e-11)
 
 
 def test_the_normal_equations_cache_reuses_its_sums_and_lets_the_targets_go():
@@ -242,16 +254,7 @@ def test_the_anisotropic_numpy_designs_take_a_batch_of_shapes(name):
     all walkers in one call (posterior/design.py; models that cannot are looped):
     row w is the design at row w. Before, ``projected_alpha2`` wrote a (W, M)
     product into an (M,) array and the sampler fell back to the loop."""
-    model = get_model(name)
-    wi, wo = hemisphere_pairs(200, seed=7)
-    geometry = Geometry(wi, wo)
-    rng = np.random.default_rng(stable_seed(name))
-    rows = [random_params(model, rng) for _ in range(3)]
-    names = [p.name for p in model.shape_params]
+    model, geometry, rows, batch = _batch_of_shapes(name, 200, 7, 3)
     with kernels.use(False):
-        design = model.design(geometry, {k: np.array([[r[k]] for r in rows]) for k in names})
-        for w, row in enumerate(rows):
-            expected = model.design(geometry, {k: row[k] for k in names})
-            for got, want in zip(design.columns, expected.columns):
-                got = got[w] if np.ndim(got) == 2 else got
-                assert _relative(got, want) < 1e-12
+        design = model.design(geometry, batch)
+        _assert_rows_are_designs(model, geometry, rows, design, 1e-12)
