@@ -20,6 +20,12 @@ from .text import print_json
 
 __all__ = ["add_parser", "add_fit_option", "check_preview", "export_after_fit", "preview", "run"]
 
+_PREVIEW_HELP = (
+    "write a picture: the fit's plot{data} beside a sphere rendered with the material in "
+    "Mitsuba (and beside Mitsuba's rendering of RGL .bsdf data); needs the 'export' and "
+    "'plot' extras"
+)
+
 
 def add_parser(subparsers) -> None:
     """The ``export`` subcommand."""
@@ -31,13 +37,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--to", required=True, choices=sorted(targets), help="the renderer")
     p.add_argument("--out", required=True, help="the file to write")
     p.add_argument("--data", help="a data file: fit approximate exports to it, measure on it")
-    p.add_argument(
-        "--preview",
-        metavar="PNG",
-        help="write a picture: the fit's plot (with --data) beside a sphere rendered with "
-        "the material in Mitsuba (and beside Mitsuba's rendering of RGL .bsdf data); "
-        "needs the 'export' and 'plot' extras",
-    )
+    p.add_argument("--preview", metavar="PNG", help=_PREVIEW_HELP.format(data=" (with --data)"))
     p.add_argument("--json", action="store_true", help="print the export as one JSON object")
     p.set_defaults(run=run)
 
@@ -50,13 +50,7 @@ def add_fit_option(parser) -> None:
         metavar="TARGET:FILE",
         help="also export the fitted material (repeatable), e.g. gltf:material.gltf",
     )
-    parser.add_argument(
-        "--preview",
-        metavar="PNG",
-        help="write a picture: the fit's plot beside a sphere rendered with the material in "
-        "Mitsuba (and beside Mitsuba's rendering of RGL .bsdf data); needs the 'export' "
-        "and 'plot' extras",
-    )
+    parser.add_argument("--preview", metavar="PNG", help=_PREVIEW_HELP.format(data=""))
 
 
 def check_preview(args) -> None:
