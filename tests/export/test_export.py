@@ -268,23 +268,6 @@ def test_mitsuba_roughplastic_exports_exactly():
                                rtol=1e-4)  # fmt: skip
 
 
-def test_openpbr_document_validates_in_materialx(plastic):
-    mx = pytest.importorskip("MaterialX", reason="MaterialX (pip install materialx) is absent")
-    doc = mx.createDocument()
-    mx.readFromXmlString(doc, export(plastic[0], "openpbr").document)
-    library = mx.createDocument()
-    mx.loadLibraries(mx.getDefaultDataLibraryFolders(), mx.getDefaultDataSearchPath(), library)
-    doc.importLibrary(library)
-    valid, message = doc.validate()
-    assert valid, message
-    node = doc.getNode("brdffit_surface")
-    nodedef = node.getNodeDef()
-    assert nodedef is not None and nodedef.getNodeString() == "open_pbr_surface"
-    for given in node.getInputs():
-        assert nodedef.getActiveInput(given.getName()) is not None, given.getName()
-        assert given.getType() == nodedef.getActiveInput(given.getName()).getType()
-
-
 @pytest.mark.parametrize("target", ["mitsuba", "mitsuba-xml"])
 def test_mitsuba_principled_exports_exactly(target):
     params = {"base_color": [0.8, 0.5, 0.3], "metallic": 0.7, "roughness": 0.35,
