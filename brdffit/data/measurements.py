@@ -24,7 +24,7 @@ from ..notes import note
 from ..words import plural
 from .angle_units import radians_note, radians_suspected
 from .checks import (
-    ANGLE_COLUMNS,  # noqa: F401  (re-exported: the readers import it from here)
+    ANGLE_COLUMNS,  # also imported from here by the readers
     _check_angles,
     _check_channels,
     _readonly,
@@ -319,6 +319,7 @@ class Measurements:
     # -------------------------------------------------------------- printing
     def to_dict(self, include_data: bool = False) -> dict:
         """A JSON-ready summary; with ``include_data`` also the angles (degrees) and values."""
+        wavelengths, angles = self.wavelengths(), self.angles()
         out = {
             "n": self.n,
             "channels": list(self._channels),
@@ -327,14 +328,13 @@ class Measurements:
             "has_sigma": self._sigma is not None,
             "negative_count": self.negative_count,
             "below_horizon_count": self.below_horizon_count,
-            "wavelengths_nm": None if self.wavelengths() is None else self.wavelengths().tolist(),
+            "wavelengths_nm": None if wavelengths is None else wavelengths.tolist(),
             "min": self._values.min(axis=0).tolist(),
             "max": self._values.max(axis=0).tolist(),
-            "theta_i_deg": sorted({round(float(t), 6) for t in self.angles()[0]})[:50],
+            "theta_i_deg": sorted({round(float(t), 6) for t in angles[0]})[:50],
         }
         if include_data:
-            names = ("theta_i", "phi_i", "theta_o", "phi_o")
-            out.update({k: np.asarray(a).tolist() for k, a in zip(names, self.angles())})
+            out.update({k: np.asarray(a).tolist() for k, a in zip(ANGLE_COLUMNS, angles)})
             out["values"] = self._values.tolist()
             out["sigma"] = None if self._sigma is None else self._sigma.tolist()
         return out
