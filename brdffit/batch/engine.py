@@ -24,7 +24,7 @@ import brdffit
 from brdffit.errors import FitError
 
 from ..extras import require
-from .rows import BatchRow, RowError
+from .rows import BatchRow, RowError, pair_key
 from .task import run_pair, unwire
 
 __all__ = ["connect", "fit_many", "sources_of"]
@@ -198,7 +198,7 @@ def fit_many(
     """
     _check(uncertainty, test_fraction, fit_options)
     names, pairs = _models(models), sources_of(sources)
-    done = {(str(s), str(m)) for s, m in skip}
+    done = {pair_key(s, m) for s, m in skip}
     todo = [(lab, src, m) for lab, src in pairs for m in names if (lab, m) not in done]
     if not todo:
         return

@@ -104,4 +104,5 @@ class BatchRow:
 
 
 def pair_key(source: str, model: str) -> tuple:
+    """The key of a pair, ``(source, model)`` as strings: rows and ``skip`` agree on it."""
     return (str(source), str(model))
