@@ -42,10 +42,10 @@ import numpy as np
 
 from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param
-from .microfacet import inv_4_cos, schlick_fresnel
+from .microfacet import _schlick_weight, inv_4_cos, schlick_fresnel
 from .params import roughness
 from .renderers import anisotropic_lobe, isotropic_lobe
-from .shared import fresnel_conductor, schlick_weight
+from .shared import fresnel_conductor
 
 __all__ = ["MODELS", "GLTF_F0", "gltf_specular", "conductor_fresnel"]
 
@@ -100,8 +100,8 @@ def gltf_specular(geometry: Geometry, alpha_t: float, alpha_b: float, rotation: 
 
 def _gltf_design(geometry: Geometry, metallic: float, spec: np.ndarray) -> Design:
     """Column of ``base_color`` and the offset, from ``S = D V`` (module docstring)."""
-    w = geometry.cached("renderer_native.schlick_w", lambda: schlick_weight(geometry.cos_d))
-    fd = schlick_fresnel(geometry, GLTF_F0)
+    w = _schlick_weight(geometry)
+    fd = schlick_fresnel(geometry, GLTF_F0)  # from the same cached weight
     column = (1.0 - metallic) * INV_PI * (1.0 - fd) + metallic * (1.0 - w) * spec
     offset = ((1.0 - metallic) * fd + metallic * w) * spec
     return Design((column,), offset)
