@@ -56,7 +56,6 @@ __all__ = [
     "INCIDENCE_GRID",
     "EnergyCheck",
     "EnergyRows",
-    "check_energy",
     "enforce_energy",
 ]
 
@@ -121,14 +120,20 @@ class EnergyRows:
         return columns[:, p.coef_index], bound
 
 
-def _block(model, grid, rule) -> tuple:
-    """The quadrature nodes of incidence angles ``grid`` (and the anisotropic
-    azimuths) as a Geometry, with their weights (T, nodes)."""
-    theta = np.asarray(grid, dtype=float)
+def _incidences(model, grid) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair (theta_i, phi_i) in degrees, flat, of the incidence angles ``grid`` and,
+    for an anisotropic model, the azimuths :data:`ANISOTROPIC_PHI_I` (else phi_i 0)."""
     phi = np.zeros(1)
     if model.classification.symmetry == "anisotropic":
         phi = np.asarray(ANISOTROPIC_PHI_I, dtype=float)
-    theta, phi = (a.ravel() for a in np.meshgrid(theta, phi, indexing="ij"))
+    theta, phi = np.meshgrid(np.asarray(grid, dtype=float), phi, indexing="ij")
+    return theta.ravel(), phi.ravel()
+
+
+def _block(model, grid, rule) -> tuple:
+    """The quadrature nodes of incidence angles ``grid`` (and the anisotropic
+    azimuths) as a Geometry, with their weights (T, nodes)."""
+    theta, phi = _incidences(model, grid)
     wi, wo, weights, _, _ = quadrature_nodes(np.radians(theta), np.radians(phi), *rule)
     return Geometry(wi, wo, check=False), weights
 
@@ -147,13 +152,6 @@ def _integrated_design(model, shape, geometry, weights) -> tuple:
     if design.offset is not None:
         bound = bound - integrate(design.offset)
     return columns, bound
-
-
-def check_energy(model, params, grid=CHECK_GRID, deadline=None) -> tuple[float, float, float]:
-    """Max albedo over the grid (and the azimuths of an anisotropic model) and
-    channels, its error estimate, and its incidence angle."""
-    found = _check(model, params, grid, deadline)
-    return found.top, found.error, found.angle
 
 
 @dataclass(frozen=True)
@@ -190,19 +188,16 @@ class EnergyCheck:
 
 
 def _check(model, params, grid, deadline, enforced=()) -> EnergyCheck:
-    phi = np.zeros(1)
-    if model.classification.symmetry == "anisotropic":
-        phi = np.asarray(ANISOTROPIC_PHI_I, dtype=float)
-    theta, phi = np.meshgrid(np.asarray(grid, dtype=float), phi, indexing="ij")
-    result = albedo(model, params, theta.ravel(), phi.ravel(), deadline=deadline)
+    theta, phi = _incidences(model, grid)
+    result = albedo(model, params, theta, phi, deadline=deadline)
     value = np.asarray(result.value).reshape(theta.size, -1)
     error = np.asarray(result.error).reshape(theta.size, -1)
     i, c = np.unravel_index(np.argmax(value), value.shape)
-    above = np.unique(theta.ravel()[(value > 1 + ABOVE_TOL).any(axis=1)])
+    above = np.unique(theta[(value > 1 + ABOVE_TOL).any(axis=1)])
     return EnergyCheck(
         float(value[i, c]),
         float(error[i, c]),
-        float(theta.ravel()[i]),
+        float(theta[i]),
         tuple(float(a) for a in above),
         tuple(enforced),
         complete=bool(np.isfinite(error).all()) and not result.stopped,
