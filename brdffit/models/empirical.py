@@ -11,7 +11,7 @@ Each lobe is a plain vectorised function of a prepared
 so an evaluation does only the arithmetic that involves a parameter, in place.
 
 Every formula here is symmetric in ``L`` and ``V``, so every model is flagged
-reciprocal; ``tests/test_model_invariants.py`` measures it.
+reciprocal; ``tests/models/test_model_invariants.py`` measures it.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ Each lobe is a plain vectorised function of a prepared
 :class:`~brdffit.data.geometry.Geometry` and its shape parameters (MODELS.md);
 what depends on the directions only is cached on the geometry. Both formulas are
 symmetric in ``L`` and ``V``, so both models are flagged reciprocal;
-``tests/test_model_invariants.py`` measures it. The paper's own isotropic
+``tests/models/test_model_invariants.py`` measures it. The paper's own isotropic
 empirical lobes live in :mod:`brdffit.models.empirical`.
 """
 

@@ -26,7 +26,7 @@ least half the error wherever the rule converges (a kink gives O(h^2)), and a
 rule agreeing by accident with its half rule, common where convergence is
 erratic, cannot stop the refinement alone.
 
-Accuracy established by ``tests/test_properties.py`` at ``rtol = 1e-6``, the
+Accuracy established by ``tests/models/test_properties.py`` at ``rtol = 1e-6``, the
 true error below the estimate every time, within 1e-6: Lambert (0 to 89.9
 degrees); normalised Phong at normal incidence (n = 1 to 1e4) and at 30 and 60
 degrees (n >= 1e3); Blinn at normal incidence; normalised Beckmann (alpha =

@@ -273,10 +273,10 @@ not fitted (cook_torrance has ``ks`` per channel, and on acrylic pushes its
 surface (``sigma0 / lambda`` about 1.4) peaks forward of the mirror, 19 degrees
 at 60 degrees of incidence on garnet, where the paint's highlight stays at the
 mirror; and a paint is a layered medium whose subsurface scattering the
-single-interface model leaves to ``a_ud``. tests/test_fit_real.py checks that
+single-interface model leaves to ``a_ud``. tests/fitting/test_fit_real.py checks that
 the fit is still sound and within twice cook_torrance's loss (four bands).
 
-Energy (measured by tests/test_models_he.py, with ``a_ud = 0``): the
+Energy (measured by tests/models/test_models_he.py, with ``a_ud = 0``): the
 directional albedo stays below 1 for dielectrics (``eta`` up to 10) and for
 conductors with ``F(0)`` up to 0.92, from 0 to 89 degrees of incidence. For a
 nearly perfect conductor (``F(0) = 0.9999``) it exceeds 1, by about 1e-4 at
