@@ -13,13 +13,11 @@ from __future__ import annotations
 
 import os
 
-import numpy as np
-
 from ..data.measurements import Measurements
 from ..errors import FormatError
 from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source, put_bytes
-from .table import angle_unit_option, from_table
+from .table import angle_unit_option, from_table, text_rows
 
 __all__ = ["format_astm", "parse_astm", "read_astm", "write_astm"]
 
@@ -90,12 +88,7 @@ def read_astm(source, angle_unit: str = "radians",
 
 def format_astm(data: Measurements) -> str:
     """ASTM E1392 text of ``data``: angles in radians, numbers written with ``repr``."""
-    names = ["theta_i", "phi_i", "theta_s", "phi_s", *data.channels]
-    columns = [np.asarray(a, dtype=float) for a in data.angles(degrees=False)]
-    columns.append(data.values)
-    if data.sigma is not None:
-        names += ["sigma_" + c for c in data.channels]
-        columns.append(data.sigma)
+    names, rows = text_rows(data, False, ("theta_i", "phi_i", "theta_s", "phi_s"))
     lines = [
         "SAMPLE_NAME " + " ".join((data.source or "unnamed").split()),
         "MEAS_NAME BRDF",
@@ -104,7 +97,7 @@ def format_astm(data: Measurements) -> str:
         "VARS " + ",".join(names),
         "",
     ]
-    lines.extend(",".join(map(repr, row)) for row in np.column_stack(columns).tolist())
+    lines.extend(rows)
     return "\n".join(lines) + "\n"
 
 

@@ -30,14 +30,12 @@ from __future__ import annotations
 
 import os
 
-import numpy as np
-
-from ..data.measurements import ANGLE_COLUMNS, Measurements
+from ..data.measurements import Measurements
 from ..errors import FormatError
 from ..notes import note
 from .limits import DEFAULT_MAX_SAMPLES, check_samples
 from .source import as_source, put_bytes
-from .table import SEPARATORS, angle_unit_option, from_table
+from .table import SEPARATORS, angle_unit_option, from_table, text_rows
 
 __all__ = ["ANGLE_UNITS", "format_csv", "parse_csv", "read_csv", "write_csv"]
 
@@ -142,19 +140,13 @@ def read_csv(source, angle_unit: str | None = None,
 
 def format_csv(data: Measurements) -> str:
     """The CSV text of ``data``: angles in degrees, channels, then sigma_<channel>."""
-    header = list(ANGLE_COLUMNS) + list(data.channels)
-    columns = [np.asarray(a, dtype=float) for a in data.angles(degrees=True)]
-    columns.append(data.values)
-    if data.sigma is not None:
-        header += ["sigma_" + c for c in data.channels]
-        columns.append(data.sigma)
-    rows = np.column_stack(columns).tolist()
+    header, rows = text_rows(data, degrees=True)
     lines = ["# brdffit measurements: angles in degrees (theta from the normal)"]
     if data.source:
         lines.append("# source: " + " ".join(data.source.split()))
     lines.append("# units: " + " ".join(data.units.split()))
     lines.append(",".join(header))
-    lines.extend(",".join(map(repr, row)) for row in rows)
+    lines.extend(rows)
     return "\n".join(lines) + "\n"
 
 

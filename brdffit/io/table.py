@@ -5,7 +5,8 @@ comma-separated rows into a float table (:func:`number_table`), checks the
 header's columns and the numbers (:func:`from_table`), and builds
 :class:`~brdffit.data.measurements.Measurements` from four angle columns
 (:func:`build`). Every error is a FormatError naming the file (``where``), the
-line and, where there is one, the column.
+line and, where there is one, the column. The writers of CSV and ASTM lay out
+their rows with :func:`text_rows`.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ __all__ = [
     "from_table",
     "number_table",
     "require_finite",
+    "text_rows",
 ]
 
 #: The column separators a table may use, with the names messages give them.
@@ -203,3 +205,16 @@ def from_table(where, names, header_line, rows, lines, degrees, source, units,
     angles = tuple(table[:, j] for j in range(4))
     values = table[:, 4 : 4 + k]
     return build(where, angles, values, channels, sigma, lines, degrees, source, units)
+
+
+def text_rows(data: Measurements, degrees: bool, angle_names=ANGLE_COLUMNS) -> tuple:
+    """``(names, rows)`` of ``data`` for a text writer: the column names (angles,
+    channels, then sigma_<channel>) and one comma-separated line per sample, each
+    number written with ``repr`` so that it reads back bit for bit."""
+    names = [*angle_names, *data.channels]
+    columns = [np.asarray(a, dtype=float) for a in data.angles(degrees=degrees)]
+    columns.append(data.values)
+    if data.sigma is not None:
+        names += ["sigma_" + c for c in data.channels]
+        columns.append(data.sigma)
+    return names, [",".join(map(repr, row)) for row in np.column_stack(columns).tolist()]
