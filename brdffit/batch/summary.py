@@ -79,7 +79,7 @@ def _markdown(header, cells) -> list[str]:
 def write_report(path, rows, read=None, title: str = "brdffit batch") -> Path:
     """Write a markdown report: the table of winners, the failures, a fit plot per source.
 
-    The plot of each source (:func:`brdffit.plot_fit.plot_fit`) shows the model
+    The plot of each source (:func:`brdffit.plot.fit.plot_fit`) shows the model
     best by held-out error (by BIC when there is no held-out score), drawn into
     ``<report stem>_plots/`` next to the report. ``read`` reads a source for
     the plot (default :func:`brdffit.read`); a source that cannot be read or
