@@ -1,9 +1,11 @@
 """brdffit: fit analytic BRDF models to measured reflectance, with uncertainties.
 
 The public API: read and write measurements (a path, bytes or a file object),
-get a model, fit it (with its posterior), compare models, synthesize data. The
-core needs numpy, scipy, nlopt and emcee only; plots, the web service and
-colour conversion are extras (:class:`MissingExtraError` names the one missing).
+get a model, fit it (with its posterior), compare models, fit many on Dask
+(``fit_many``), export a fit to renderers, synthesize data. The core needs
+numpy, scipy, nlopt and emcee only; plots, the web service, colour conversion,
+batch fits and export previews are extras (:mod:`brdffit.extras`;
+:class:`MissingExtraError` names the one missing).
 """
 
 from .batch import fit_many  # Dask is imported when a batch runs, not here
