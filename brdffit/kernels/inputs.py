@@ -54,9 +54,17 @@ def _pow5(x: np.ndarray) -> np.ndarray:
     return x2 * x2 * x
 
 
-def _ward_factor(g: Geometry) -> np.ndarray:
-    """``1 / (4 pi sqrt((N.L)(N.V)))``."""
-    return 1.0 / (4.0 * math.pi * np.sqrt(g.cos_i * g.cos_o))
+def _log_ward_factor(g: Geometry) -> np.ndarray:
+    """``ln(1 / (4 pi sqrt((N.L)(N.V))))``, of both Ward lobes; cached."""
+    return g.cached(
+        "kernels.log_ward_factor",
+        lambda: np.log(1.0 / (4.0 * math.pi * np.sqrt(g.cos_i * g.cos_o))),
+    )
+
+
+def _theta_h2(g: Geometry) -> np.ndarray:
+    """``theta_h^2``, of Blake's and Torrance-Sparrow's lobes; cached."""
+    return g.cached("kernels.theta_h2", lambda: g.theta_h**2)
 
 
 def microfacet_inputs(g: Geometry) -> tuple:
@@ -99,12 +107,17 @@ def _tan2_axes_of(w: np.ndarray, cos: np.ndarray) -> tuple:
     return w[:, 0] ** 2 * inv_c2, w[:, 1] ** 2 * inv_c2
 
 
+def _h_axes(g: Geometry) -> tuple:
+    """:func:`_tan2_axes_of` of H; cached."""
+    return g.cached("kernels.h_axes", lambda: _tan2_axes_of(g.half, g.cos_h))
+
+
 def _anisotropic_axes(g: Geometry) -> tuple:
     """:func:`_tan2_axes_of` of H, L and V: six arrays."""
 
     def compute():
         return (
-            *_tan2_axes_of(g.half, g.cos_h),
+            *_h_axes(g),
             *_tan2_axes_of(g.wi, g.cos_i),
             *_tan2_axes_of(g.wo, g.cos_o),
         )
@@ -126,7 +139,7 @@ def beckmann_anisotropic_inputs(g: Geometry) -> tuple:
 
 def ward_inputs(g: Geometry) -> tuple:
     """Ward: ``tan^2 theta_h`` and ``ln(1 / (4 pi sqrt((N.L)(N.V))))``."""
-    return g.cached("kernels.ward", lambda: (g.tan2_h, np.log(_ward_factor(g))))
+    return g.tan2_h, _log_ward_factor(g)
 
 
 def cook_torrance_inputs(g: Geometry) -> tuple:
@@ -154,14 +167,14 @@ def torrance_sparrow_inputs(g: Geometry) -> tuple:
     def compute():
         shadowing = vcavity_g(g.cos_h, g.cos_i, g.cos_o, g.cos_d)
         factor = shadowing / (4.0 * g.cos_i * g.cos_o)
-        return g.theta_h**2, np.log(factor), np.maximum(g.cos_d, 1e-300)
+        return _theta_h2(g), np.log(factor), np.maximum(g.cos_d, 1e-300)
 
     return g.cached("kernels.torrance_sparrow", compute)
 
 
 def blake_inputs(g: Geometry) -> tuple:
     """Blake: ``theta_h`` and ``theta_h^2``."""
-    return g.theta_h, g.cached("kernels.theta_h2", lambda: g.theta_h**2)
+    return g.theta_h, _theta_h2(g)
 
 
 def blinn_inputs(g: Geometry) -> tuple:
@@ -208,13 +221,7 @@ def wang_inputs(g: Geometry) -> tuple:
 def ward_anisotropic_inputs(g: Geometry) -> tuple:
     """Anisotropic Ward: ``(H.T / N.H)^2``, ``(H.B / N.H)^2`` and the logarithm of
     Ward's factor."""
-
-    def compute():
-        inv_c2 = 1.0 / (g.cos_h * g.cos_h)
-        h = g.half
-        return h[:, 0] ** 2 * inv_c2, h[:, 1] ** 2 * inv_c2, np.log(_ward_factor(g))
-
-    return g.cached("kernels.ward_anisotropic", compute)
+    return (*_h_axes(g), _log_ward_factor(g))
 
 
 def ashikhmin_phong_inputs(g: Geometry) -> tuple:
