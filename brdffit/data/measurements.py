@@ -285,10 +285,9 @@ class Measurements:
                 f"{list(self._channels)}",
                 "channels",
             )
-        from .colour import spectral_to_xyz
+        from .colour import tristimulus_weights
 
-        matrix = np.asarray(spectral_to_xyz(np.eye(self.n_channels), wavelengths), dtype=float)
-        return self._linear_map(matrix, ("X", "Y", "Z"))
+        return self._linear_map(tristimulus_weights(wavelengths), ("X", "Y", "Z"))
 
     def to_srgb(self) -> Measurements:
         """Linear sRGB channels ``("r", "g", "b")`` (no gamma: reflectance stays linear).
