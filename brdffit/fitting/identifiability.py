@@ -181,7 +181,7 @@ def _fisher(problem, params: dict, deadline=None) -> dict:
     info = _information(columns, np.sqrt(w)) * (problem.geometry.m / len(rows))
     dof = max(base.size * problem.geometry.m / len(rows) - len(names), 1.0)
     s2 = 1.0 if problem.loss.needs_sigma else float(np.sum(w * (target - base) ** 2)) / dof
-    return _judge(names, kinds, info / max(s2, 1e-300), params, problem)
+    return _judge(names, kinds, info / max(s2, 1e-300), params)
 
 
 def _information(columns: list, sqrt_w: np.ndarray) -> np.ndarray:
@@ -297,7 +297,7 @@ def _as_param(values: np.ndarray):
     return float(values[0]) if values.size == 1 else values
 
 
-def _judge(names, kinds, info, params, problem) -> dict:
+def _judge(names, kinds, info, params) -> dict:
     """Null directions of the unit-diagonal information, then the shape widths."""
     out = {}
     scale = np.sqrt(np.diag(info))
