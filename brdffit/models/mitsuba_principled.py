@@ -26,7 +26,7 @@ import math
 
 from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param
-from .microfacet import schlick_fresnel
+from .microfacet import _schlick_weight
 from .renderers import anisotropic_lobe, isotropic_lobe
 from .shared import fresnel_dielectric, schlick_weight
 
@@ -47,6 +47,17 @@ def principled_alphas(roughness: float, anisotropic: float | None) -> tuple:
     return max(0.001, r2 / aspect), max(0.001, r2 * aspect)
 
 
+def _burley_terms(geometry: Geometry) -> tuple:
+    """The parameter-free parts of Burley's diffuse, with ``w_L = w(N.L)``, ``w_V =
+    w(N.V)``: ``(1 - w_L/2)(1 - w_V/2)``, ``w_L + w_V`` and ``w_L w_V``; cached."""
+
+    def compute():
+        wi, wo = schlick_weight(geometry.cos_i), schlick_weight(geometry.cos_o)
+        return (1.0 - 0.5 * wi) * (1.0 - 0.5 * wo), wi + wo, wi * wo
+
+    return geometry.cached("mitsuba_principled.burley", compute)
+
+
 def _design(geometry: Geometry, shape, anisotropic: float | None) -> Design:
     metallic, rough = shape["metallic"], shape["roughness"]
     au, av = principled_alphas(rough, anisotropic)
@@ -54,11 +65,10 @@ def _design(geometry: Geometry, shape, anisotropic: float | None) -> Design:
         dg = isotropic_lobe(geometry, "ggx", au, 1.0)
     else:
         dg = anisotropic_lobe(geometry, "ggx", au, av, 1.0)
-    w = schlick_fresnel(geometry, 0.0)  # (1 - V.H)^5
-    wi = schlick_weight(geometry.cos_i)
-    wo = schlick_weight(geometry.cos_o)
+    w = _schlick_weight(geometry)  # (1 - V.H)^5
+    f_diff, w_sum, w_product = _burley_terms(geometry)
     retro = 2.0 * rough * geometry.cos_d * geometry.cos_d
-    diffuse = (1.0 - 0.5 * wi) * (1.0 - 0.5 * wo) + retro * (wi + wo + wi * wo * (retro - 1.0))
+    diffuse = f_diff + retro * (w_sum + w_product * (retro - 1.0))
     column = (1.0 - metallic) * INV_PI * diffuse + metallic * (1.0 - w) * dg
     fresnel = (1.0 - metallic) * fresnel_dielectric(
         geometry.cos_d, principled_eta(shape["specular"])
