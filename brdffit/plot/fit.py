@@ -105,9 +105,14 @@ def plane_of_incidence(data, tolerance: float = SLICE_TOLERANCE) -> list[PlaneSl
     ti, pi_, to, po = (np.asarray(a, dtype=float) for a in data.angles(degrees=True))
     key = np.round(np.column_stack([ti, np.mod(pi_, 360.0)]), 3)
     dphi = np.mod(po - pi_, 360.0)
+    incidences, which = np.unique(key, axis=0, return_inverse=True)
+    which = np.ravel(which)  # each sample's incidence direction, samples grouped below
+    bounds = np.cumsum(np.bincount(which, minlength=len(incidences)))[:-1]
+    samples = np.split(np.argsort(which, kind="stable"), bounds)
     groups = []
-    for theta_i, phi_i in np.unique(key, axis=0):
-        same = np.flatnonzero((key[:, 0] == theta_i) & (key[:, 1] == phi_i))
+    for (theta_i, phi_i), same in zip(incidences, samples, strict=True):
+        if len(same) < 5:
+            continue
         group = _group(float(theta_i), float(phi_i), same, dphi[same], to[same], tolerance)
         if group is not None:
             groups.append(group)
