@@ -127,18 +127,27 @@ def internal_reflectance(alpha: float, eta: float) -> float:
     )
 
 
-def _lerp(table: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Mitsuba's ``lerp_gather`` on a table over [0, 1]."""
-    x = x * (len(table) - 1)
-    index = np.minimum(x.astype(np.int64), len(table) - 2)
-    w1 = x - index
+def _lerp_nodes(x: np.ndarray) -> tuple:
+    """Mitsuba's ``lerp_gather`` on a table of :data:`TABLE_SIZE` values over [0, 1]:
+    the index below each ``x`` and the weight of the value above it."""
+    x = x * (TABLE_SIZE - 1)
+    index = np.minimum(x.astype(np.int64), TABLE_SIZE - 2)
+    return index, x - index
+
+
+def _lerp(table: np.ndarray, nodes: tuple) -> np.ndarray:
+    index, w1 = nodes
     return (1.0 - w1) * table[index] + w1 * table[index + 1]
 
 
 def _design(geometry: Geometry, shape) -> Design:
     alpha, eta = shape["alpha"], shape["eta"]
     table = transmittance_table(float(alpha), float(eta))
-    diffuse = _lerp(table, geometry.wi[:, 2]) * _lerp(table, geometry.wo[:, 2])
+    nodes_i, nodes_o = geometry.cached(
+        "mitsuba_plastic.lerp_nodes",
+        lambda: (_lerp_nodes(geometry.wi[:, 2]), _lerp_nodes(geometry.wo[:, 2])),
+    )
+    diffuse = _lerp(table, nodes_i) * _lerp(table, nodes_o)
     diffuse *= 1.0 / (math.pi * eta * eta)
     specular = isotropic_lobe(geometry, "ggx", alpha, 1.0)
     specular *= fresnel_dielectric(geometry.cos_d, eta)
