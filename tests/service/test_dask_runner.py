@@ -5,9 +5,9 @@ from __future__ import annotations
 import os
 import signal
 import time
-from pathlib import Path
 
 import pytest
+from service_helpers import WARD_CSV
 
 distributed = pytest.importorskip(
     "distributed", reason="Dask distributed is absent: pip install 'brdffit[batch]'"
@@ -46,7 +46,7 @@ def _wait(store, ids, statuses, seconds=60):
 
 def test_jobs_run_on_the_cluster_and_equal_a_plain_fit(cluster, tmp_path):
     store = JobStore(tmp_path / "jobs.sqlite3")
-    data = brdffit.read(Path(__file__).resolve().parents[2] / "data_synthetic" / "ward.csv")
+    data = brdffit.read(WARD_CSV)
     runner = runner_for(store, 2, cluster.scheduler_address)
     assert isinstance(runner, DaskJobRunner)
     try:

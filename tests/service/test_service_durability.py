@@ -22,6 +22,7 @@ from pathlib import Path
 
 import pytest
 from service_helpers import (
+    WARD_CSV,
     Server,
     free_port,
     proc_stat,
@@ -30,8 +31,7 @@ from service_helpers import (
     wait_until_gone,
 )
 
-ROOT = Path(__file__).resolve().parents[2]
-UPLOAD = {"file": ("ward.csv", (ROOT / "data_synthetic" / "ward.csv").read_bytes(), "text/csv")}
+UPLOAD = {"file": ("ward.csv", WARD_CSV.read_bytes(), "text/csv")}
 #: A job that runs until stopped: a million posterior steps.
 SLOW = (
     '{"uncertainty": true, "posterior_options": {"steps": 1000000, "max_steps": 1000000, '

@@ -15,12 +15,10 @@ import time
 from pathlib import Path
 
 import pytest
+from service_helpers import WARD_CSV as WARD
 from service_helpers import Server, wait_for, wait_until_gone
 
 import brdffit
-
-ROOT = Path(__file__).resolve().parents[2]
-WARD = ROOT / "data_synthetic" / "ward.csv"
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="uses POSIX signals")
 

@@ -13,19 +13,14 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
-import socket
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 
 import httpx
 import pytest
+from service_helpers import ROOT, Server
+from service_helpers import WARD_CSV as WARD
 
-ROOT = Path(__file__).resolve().parents[2]
-WARD = ROOT / "data_synthetic" / "ward.csv"
 TRUTH = ROOT / "data_synthetic" / "truth.json"
 ARTIFACTS = ROOT / "tests" / "artifacts"
 CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
@@ -43,43 +38,13 @@ from selenium.webdriver.common.keys import Keys  # noqa: E402
 from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    """The service under uvicorn in its own process group, with a fresh store."""
+    """The URL of ``brdffit serve`` on a free loopback port, with a fresh store."""
     folder = tmp_path_factory.mktemp("web")
-    port = free_port()
-    env = {**os.environ, "BRDFFIT_STORE_PATH": str(folder / "jobs.sqlite3"),
-           "BRDFFIT_WORKERS": "2", "PYTHONPATH": os.pathsep.join(
-               [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])}  # fmt: skip
-    log = open(folder / "server.log", "wb")
-    process = subprocess.Popen(
-        [sys.executable, "-m", "uvicorn", "brdffit_service.app:app", "--host", "127.0.0.1",
-         "--port", str(port), "--log-level", "warning"],
-        env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
-    )  # fmt: skip
-    url = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 60
-    while True:
-        assert process.poll() is None, (folder / "server.log").read_text()
-        try:
-            if httpx.get(url + "/health").status_code == 200:
-                break
-        except httpx.TransportError:
-            assert time.monotonic() < deadline, "the service did not start"
-            time.sleep(0.2)
-    yield url
-    os.killpg(process.pid, signal.SIGTERM)
-    try:
-        process.wait(timeout=15)
-    except subprocess.TimeoutExpired:
-        os.killpg(process.pid, signal.SIGKILL)
-    log.close()
+    running = Server(folder / "jobs.sqlite3", folder / "server.log", workers=2)
+    yield running.url
+    running.reap()
 
 
 @pytest.fixture(scope="module")
@@ -346,8 +311,6 @@ def test_a_reload_keeps_following_the_job(server, browser):
 def test_a_server_with_a_token_asks_for_it_and_sends_it(browser, tmp_path):
     """BRDFFIT_API_TOKEN (issue 18): the page asks for the token, keeps it for the tab
     and sends it on its API calls, pictures included (fetched, since <img> cannot)."""
-    from service_helpers import Server
-
     token = "page-token-1234"
     guarded = Server(tmp_path / "jobs.sqlite3", tmp_path / "server.log", workers=1,
                      env={"BRDFFIT_API_TOKEN": token})  # fmt: skip

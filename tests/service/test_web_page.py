@@ -8,11 +8,11 @@ import re
 import sys
 import time
 from html.parser import HTMLParser
-from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
-from service_helpers import wait_for
+from service_helpers import ROOT, wait_for
+from service_helpers import WARD_CSV as WARD
 
 import brdffit
 import brdffit.models
@@ -20,8 +20,6 @@ from brdffit_service import Settings, create_app
 from brdffit_service.comparisons import ranks
 from brdffit_service.routes.web import WEB, page_file
 
-ROOT = Path(__file__).resolve().parents[2]
-WARD = ROOT / "data_synthetic" / "ward.csv"
 FILES = ("index.html", "app.css", "app.js")
 THIRTEEN = ",".join(sorted(brdffit.models.REGISTRY)[:13])  # one more than a comparison takes
 WALKERS = "options.posterior_options.walkers"
