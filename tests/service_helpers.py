@@ -27,6 +27,7 @@ WARD_CSV = ROOT / "data_synthetic" / "ward.csv"
 #: Limits of the shared test client (tests/service/conftest.py).
 FIT_LIMIT = 800
 BODY_LIMIT = 400_000
+FIT_TIMEOUT = 5.0
 
 
 def wait_for(client, job_id: str, statuses=("done", "failed", "interrupted"), seconds=60.0):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 from fastapi.testclient import TestClient
-from service_helpers import BODY_LIMIT, FIT_LIMIT
+from service_helpers import BODY_LIMIT, FIT_LIMIT, FIT_TIMEOUT
 
 from brdffit_service import Settings, create_app
 
@@ -24,7 +24,7 @@ def client(store_path):
         fit_workers=0,
         fit_max_samples=FIT_LIMIT,
         max_body_bytes=BODY_LIMIT,
-        fit_timeout=5.0,
+        fit_timeout=FIT_TIMEOUT,
         job_timeout=30.0,
     )
     with TestClient(create_app(settings), raise_server_exceptions=False) as c:

@@ -9,7 +9,14 @@ import tempfile
 
 import numpy as np
 import pytest
-from service_helpers import FIT_LIMIT, WARD_CSV, assert_error, direction, example_measurements
+from service_helpers import (
+    FIT_LIMIT,
+    FIT_TIMEOUT,
+    WARD_CSV,
+    assert_error,
+    direction,
+    example_measurements,
+)
 
 import brdffit
 from brdffit_service.schemas import EXAMPLE_DATA
@@ -75,7 +82,7 @@ def test_nan_in_a_body_is_refused(client):
 def test_fit_matches_the_library(client):
     answer = client.post("/fit", json={"model": "blinn", "data": EXAMPLE_DATA, "seed": 3})
     assert answer.status_code == 200, answer.text
-    expected = brdffit.fit(example_measurements(), "blinn", seed=3, timeout=5.0).to_dict()
+    expected = brdffit.fit(example_measurements(), "blinn", seed=3, timeout=FIT_TIMEOUT).to_dict()
     got = answer.json()
     assert got["params"] == expected["params"]
     assert got["n_evals"] == expected["n_evals"]
@@ -84,7 +91,7 @@ def test_fit_matches_the_library(client):
 
 def test_fit_caps_the_timeout_at_the_server_limit(client):
     body = {"model": "blinn", "data": EXAMPLE_DATA, "timeout": 1000}
-    assert client.post("/fit", json=body).json()["options"]["timeout"] == 5.0
+    assert client.post("/fit", json=body).json()["options"]["timeout"] == FIT_TIMEOUT
 
 
 def test_fit_with_uncertainty_returns_the_posterior(client):
@@ -162,7 +169,7 @@ def test_fit_file_matches_the_library(client):
         )
     assert answer.status_code == 200, answer.text
     data = brdffit.read(WARD_CSV).select_channels(["g"])
-    expected = brdffit.fit(data, "ward", timeout=5.0).to_dict()
+    expected = brdffit.fit(data, "ward", timeout=FIT_TIMEOUT).to_dict()
     assert answer.json()["params"] == expected["params"]
 
 
