@@ -54,12 +54,35 @@ def add_fit_option(parser) -> None:
 
 
 def check_preview(args) -> None:
-    """Before any work: a ``--preview`` needs Mitsuba and matplotlib (one-line errors)."""
+    """Before any work: each ``--export`` is TARGET:FILE of a known target, and a
+    ``--preview`` needs Mitsuba and matplotlib (one-line errors)."""
+    _export_specs(args)
     if getattr(args, "preview", None):
         from ..extras import require
 
         require("mitsuba", "export")
         require("matplotlib", "plot")
+
+
+def _export_specs(args) -> list:
+    """``(target, file)`` of each ``--export TARGET:FILE``, checked."""
+    from ..export import export_targets
+
+    specs = []
+    for spec in getattr(args, "export", None) or ():
+        target, sep, out = spec.partition(":")
+        if not sep or not out:
+            raise ParameterError(
+                f"--export {spec!r} must be TARGET:FILE, e.g. gltf:m.gltf", "export"
+            )
+        if target not in export_targets():
+            raise ParameterError(
+                f"--export {spec!r}: {target!r} is not an export target; choose one of "
+                f"{', '.join(export_targets())}",
+                "export",
+            )
+        specs.append((target, out))
+    return specs
 
 
 def _load_result(path: str) -> dict:
@@ -148,12 +171,7 @@ def export_after_fit(args, result, data) -> None:
     """Write each ``--export TARGET:FILE`` of a fit and the ``--preview``; report on
     stderr (stdout may be JSON)."""
     made = []
-    for spec in getattr(args, "export", None) or ():
-        target, sep, out = spec.partition(":")
-        if not sep or not out:
-            raise ParameterError(
-                f"--export {spec!r} must be TARGET:FILE, e.g. gltf:m.gltf", "export"
-            )
+    for target, out in _export_specs(args):
         made.append(_do(result, target, out, data))
         sys.stderr.write(f"wrote {out}\n{summary(made[-1])}\n")
     if getattr(args, "preview", None):

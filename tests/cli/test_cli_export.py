@@ -91,6 +91,13 @@ def test_not_a_result_is_named(capsys, tmp_path):
     assert code == 2 and "TARGET:FILE" in err
 
 
+def test_fit_refuses_an_unknown_export_target_before_reading_the_data(capsys, tmp_path):
+    missing = tmp_path / "nope.csv"  # read first, it would be the error
+    code, _, err = run_cli(capsys, "fit", missing, "--model", "lambert", "--export", "maya:m.ma")
+    assert code == 2 and "'maya' is not an export target" in err and "gltf" in err
+    assert len(err.strip().splitlines()) == 1
+
+
 def test_preview_beside_mitsubas_measured_rendering_of_an_rgl_file(tmp_path):
     pytest.importorskip("mitsuba", reason="Mitsuba 3 (pip install mitsuba) is absent")
     from helpers import shared_file
