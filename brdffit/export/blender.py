@@ -25,7 +25,6 @@ from __future__ import annotations
 import json
 import math
 
-from ..models import get_model
 from .core import Material, rgb
 from .openpbr import fit_native, subsample_note
 from .openpbr_brdf import BLENDER, BLENDER_ANISOTROPIC
@@ -41,7 +40,7 @@ RENDER_NOTE = (
 
 def blender_material(material: Material, data=None) -> tuple:
     """(native Material evaluating the Principled BSDF, notes)."""
-    aniso = get_model(material.model).classification.symmetry == "anisotropic"
+    aniso = material.anisotropic
     native = fit_native(material, BLENDER_ANISOTROPIC if aniso else BLENDER, data)
     notes = (
         f"{material.model} is not Blender's BRDF: the Principled BSDF (GGX) was fitted to "

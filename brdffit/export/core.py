@@ -46,6 +46,11 @@ class Material:
     params: Mapping[str, Any]
     channels: tuple = ("value",)
 
+    @property
+    def anisotropic(self) -> bool:
+        """Whether the model depends on the azimuth about the normal (needs a tangent)."""
+        return get_model(self.model).classification.symmetry == "anisotropic"
+
     def evaluate(self, wi, wo) -> np.ndarray:
         """BRDF values, shape (N, C)."""
         f = get_model(self.model).evaluate(wi, wo, dict(self.params))

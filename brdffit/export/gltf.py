@@ -16,7 +16,6 @@ The native models are ``gltf_pbr`` and ``gltf_pbr_anisotropic``
 
 from __future__ import annotations
 
-from ..models import get_model
 from .core import Material, rgb, to_native
 
 __all__ = ["gltf_document", "gltf_material", "material_from_gltf"]
@@ -33,7 +32,7 @@ def gltf_material(material: Material, data=None) -> tuple:
         return material, True, ()
     if material.model == "gltf_pbr_anisotropic":
         return material, True, (TANGENT_NOTE,)
-    aniso = get_model(material.model).classification.symmetry == "anisotropic"
+    aniso = material.anisotropic
     name = "gltf_pbr_anisotropic" if aniso else "gltf_pbr"
     native = to_native(material, name, data)
     notes = (

@@ -40,7 +40,7 @@ NONE_ETA_K = (0.0, 1.0)
 
 def native_model(material: Material) -> str:
     """The Mitsuba-native model of the material's symmetry."""
-    aniso = get_model(material.model).classification.symmetry == "anisotropic"
+    aniso = material.anisotropic
     return "lambert+mitsuba_roughconductor" + ("_anisotropic" if aniso else "")
 
 

@@ -27,7 +27,6 @@ import math
 import numpy as np
 
 from ..fitting import fit
-from ..models import get_model
 from .core import Material, reference_data, rgb
 from .openpbr_brdf import OPENPBR, OPENPBR_ANISOTROPIC, for_fitting
 
@@ -75,7 +74,7 @@ def subsample_note(data) -> tuple:
 
 def openpbr_material(material: Material, data=None) -> tuple:
     """(native Material evaluating OpenPBR's BRDF, notes)."""
-    aniso = get_model(material.model).classification.symmetry == "anisotropic"
+    aniso = material.anisotropic
     native = fit_native(material, OPENPBR_ANISOTROPIC if aniso else OPENPBR, data)
     notes = (
         f"{material.model} is not OpenPBR's BRDF: OpenPBR's opaque base was fitted to it "
