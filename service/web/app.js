@@ -386,6 +386,29 @@ function figure(src, alt, caption) {
   return el("figure", {}, link, note);
 }
 
+// Save a blob as the file `name`, as a download link would.
+function save(blob, name) {
+  const url = URL.createObjectURL(blob);
+  const link = el("a", { href: url, download: name, hidden: true });
+  document.body.append(link);
+  link.click();
+  link.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 60000);
+}
+
+// A download link; with a token, which a plain link cannot send, the file is fetched
+// with it, then saved.
+function downloadLink(href, name, text) {
+  const link = el("a", { href, download: name, text });
+  link.addEventListener("click", async (event) => {
+    if (!apiToken()) return;
+    event.preventDefault();
+    const response = await apiFetch(href);
+    if (response.ok) save(await response.blob(), name);
+  });
+  return link;
+}
+
 function renderModel(job) {
   const article = el("article", { id: `result-${job.id}`, "data-model": job.model, "aria-labelledby": `h-${job.id}` });
   article.append(el("h3", { id: `h-${job.id}`, text: `${job.model} (${job.status})` }));
@@ -404,9 +427,9 @@ function renderModel(job) {
   const plots = el("div", { class: "plots" }, figure(`/jobs/${job.id}/plot.png`, `Fit of ${job.model}: measured and fitted reflectance in the planes of incidence, and the residuals`, "The fit and its residuals"));
   if (post) plots.append(figure(`/jobs/${job.id}/corner.png`, `Corner plot of the posterior of ${job.model}`, "The posterior: every pair of parameters"));
   article.append(plots);
-  const downloads = [el("a", { href: `/jobs/${job.id}`, download: `${job.model}-${job.id}.json`, text: "result (JSON)" }), " · ",
-    el("a", { href: `/jobs/${job.id}/plot.png`, download: `${job.model}-fit.png`, text: "fit plot (PNG)" })];
-  if (post) downloads.push(" · ", el("a", { href: `/jobs/${job.id}/corner.png`, download: `${job.model}-corner.png`, text: "corner plot (PNG)" }));
+  const downloads = [downloadLink(`/jobs/${job.id}`, `${job.model}-${job.id}.json`, "result (JSON)"), " · ",
+    downloadLink(`/jobs/${job.id}/plot.png`, `${job.model}-fit.png`, "fit plot (PNG)")];
+  if (post) downloads.push(" · ", downloadLink(`/jobs/${job.id}/corner.png`, `${job.model}-corner.png`, "corner plot (PNG)"));
   article.append(el("p", {}, "Download: ", ...downloads));
   article.append(exportButtons(job));
   return article;
@@ -446,12 +469,7 @@ async function downloadExport(job, target, button, status) {
     const made = await exportOf(job, target);
     const text = typeof made.document === "string" ? made.document : JSON.stringify(made.document, null, 2);
     const name = `${job.model}.${EXPORT_ENDINGS[target] || "txt"}`;
-    const url = URL.createObjectURL(new Blob([text], { type: "application/octet-stream" }));
-    const link = el("a", { href: url, download: name, hidden: true });
-    document.body.append(link);
-    link.click();
-    link.remove();
-    setTimeout(() => URL.revokeObjectURL(url), 60000);
+    save(new Blob([text], { type: "application/octet-stream" }), name);
     const e = made.conversion_error;
     status.textContent = `Saved ${name}: ${e.exact ? "an exact" : "an approximate"} ${target} material; `
       + `RMS of ln(1 + f cos) ${fmt(e.rms_log_target)} (the fit's own ${fmt(e.rms_log_fit)}) against the ${e.against}.`;

@@ -310,7 +310,8 @@ def test_a_reload_keeps_following_the_job(server, browser):
 
 def test_a_server_with_a_token_asks_for_it_and_sends_it(browser, tmp_path):
     """BRDFFIT_API_TOKEN (issue 18): the page asks for the token, keeps it for the tab
-    and sends it on its API calls, pictures included (fetched, since <img> cannot)."""
+    and sends it on its API calls, pictures and downloads included (fetched, since
+    <img> and <a download> cannot)."""
     token = "page-token-1234"
     guarded = Server(tmp_path / "jobs.sqlite3", tmp_path / "server.log", workers=1,
                      env={"BRDFFIT_API_TOKEN": token})  # fmt: skip
@@ -332,6 +333,17 @@ def test_a_server_with_a_token_asks_for_it_and_sends_it(browser, tmp_path):
             "const i = [...document.querySelectorAll('#model-results img')];"
             "return i.length > 0 && i.every(x => x.src.startsWith('blob:') && x.naturalWidth > 0)"
         ))  # fmt: skip
+        # The download links send the token too: the result's JSON is the job's.
+        folder = tmp_path / "downloads"
+        folder.mkdir()
+        browser.execute_cdp_cmd("Browser.setDownloadBehavior",
+                                {"behavior": "allow", "downloadPath": str(folder)})  # fmt: skip
+        link = browser.find_element(By.CSS_SELECTOR, '#model-results a[href^="/jobs/"]')
+        saved = folder / link.get_attribute("download")
+        link.click()
+        WebDriverWait(browser, 20).until(lambda d: saved.exists() and saved.stat().st_size > 0)
+        job = json.loads(saved.read_text())
+        assert job["status"] == "done" and job["model"] == "ward", job
     finally:
         browser.execute_script("sessionStorage.clear()")
         guarded.reap()
