@@ -44,8 +44,8 @@ from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param
 from .microfacet import _schlick_weight, inv_4_cos, schlick_fresnel
 from .params import roughness
-from .renderers import anisotropic_lobe, isotropic_lobe
-from .shared import fresnel_conductor
+from .renderers import _tan2, anisotropic_lobe, isotropic_lobe
+from .shared import fresnel_conductor, ggx_d
 
 __all__ = ["MODELS", "GLTF_F0", "gltf_specular", "conductor_fresnel"]
 
@@ -98,6 +98,19 @@ def gltf_specular(geometry: Geometry, alpha_t: float, alpha_b: float, rotation: 
     return d
 
 
+def _gltf_specular_isotropic(geometry: Geometry, alpha) -> np.ndarray:
+    """:func:`gltf_specular` with ``alpha_t = alpha_b = alpha``, from the geometry's
+    cached ``tan^2`` of H, L and V: ``G2 = 2 / (sqrt(1 + alpha^2 tan^2 theta_L) +
+    sqrt(1 + alpha^2 tan^2 theta_V))``. ``alpha`` may be a (W, 1) batch."""
+    a2 = alpha * alpha
+    d = ggx_d(geometry.tan2_h, geometry.cos_h, a2)
+    s = np.sqrt(1.0 + a2 * _tan2(geometry, "i"))
+    s += np.sqrt(1.0 + a2 * _tan2(geometry, "o"))
+    d *= 2.0 / s
+    d *= inv_4_cos(geometry)
+    return d
+
+
 def _gltf_design(geometry: Geometry, metallic: float, spec: np.ndarray) -> Design:
     """Column of ``base_color`` and the offset, from ``S = D V`` (module docstring)."""
     w = _schlick_weight(geometry)
@@ -132,7 +145,7 @@ def _gltf_params() -> tuple:
 
 def _gltf_iso_design(geometry: Geometry, shape) -> Design:
     alpha = shape["roughness"] ** 2
-    return _gltf_design(geometry, shape["metallic"], gltf_specular(geometry, alpha, alpha))
+    return _gltf_design(geometry, shape["metallic"], _gltf_specular_isotropic(geometry, alpha))
 
 
 def _gltf_aniso_design(geometry: Geometry, shape) -> Design:

@@ -209,14 +209,14 @@ def beckmann_d_anisotropic(tan2_h, cos_h, cos2_phi_h, alpha_u: float, alpha_v: f
     return e
 
 
-def ggx_d(tan2_h, cos_h, alpha2: float) -> np.ndarray:
+def ggx_d(tan2_h, cos_h, alpha2) -> np.ndarray:
     """GGX (Trowbridge-Reitz) distribution
     ``1 / (pi alpha^2 cos^4 (1 + tan^2/alpha^2)^2)`` (Walter et al. 2007, eq. 33).
 
     Normalised so that ``integral D(h) (N.H) dw_h = 1``. For the anisotropic
     distribution use :func:`ggx_d_anisotropic`.
     """
-    t = np.multiply(tan2_h, 1.0 / alpha2, out=_new(tan2_h, cos_h))
+    t = np.multiply(tan2_h, 1.0 / alpha2, out=_new(tan2_h, cos_h, alpha2))
     t += 1.0
     t *= cos_h
     t *= cos_h
