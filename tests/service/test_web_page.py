@@ -18,10 +18,11 @@ import brdffit
 import brdffit.models
 from brdffit_service import Settings, create_app
 from brdffit_service.comparisons import ranks
+from brdffit_service.routes.comparisons import MAX_MODELS
 from brdffit_service.routes.web import WEB, page_file
 
 FILES = ("index.html", "app.css", "app.js")
-THIRTEEN = ",".join(sorted(brdffit.models.REGISTRY)[:13])  # one more than a comparison takes
+TOO_MANY = ",".join(sorted(brdffit.models.REGISTRY)[: MAX_MODELS + 1])
 WALKERS = "options.posterior_options.walkers"
 
 
@@ -146,7 +147,7 @@ def _post(client, models: str, options: str = "{}", name="ward.csv", content=Non
     [
         ("wardd", "{}", None, {}, "models"),
         (" , ", "{}", None, {}, "models"),
-        (THIRTEEN, "{}", None, {}, "models"),
+        (TOO_MANY, "{}", None, {}, "models"),
         ("ward", '{"loss": "nope"}', None, {}, "options.loss"),
         ("ward", '{"posterior_options": {"walkers": 0}}', None, {}, WALKERS),
         ("ward", "{}", b"no,header\n1,2\n", {}, "file.header"),
