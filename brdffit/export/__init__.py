@@ -9,9 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data.geometry import Geometry
 from ..errors import ParameterError
-from ..models import get_model
 from .blender import blender_document, blender_inputs, blender_material
 from .core import (
     Export,
@@ -33,7 +31,7 @@ from .mitsuba import (
 )
 from .openpbr import openpbr_document, openpbr_material, openpbr_parameters
 from .openpbr_albedo import native_albedo as fitted_albedo
-from .pbrt import pbrt_model, pbrt_parameters, pbrt_statement, pbrt_values
+from .pbrt import pbrt_evaluator, pbrt_model, pbrt_parameters, pbrt_statement
 
 __all__ = ["Export", "Material", "export", "export_targets", "material_from_gltf", "material_of"]
 
@@ -83,12 +81,7 @@ def export(result, target: str, data=None) -> Export:
 def _via_pbrt(material: Material, data) -> Export:
     q, notes = pbrt_parameters(material, data)
     native = Material(pbrt_model(q), {"scale": 1.0}, material.channels)
-
-    def evaluate(wi, wo):
-        geometry = Geometry(wi, wo)
-        return geometry.scatter(pbrt_values(geometry, q))
-
-    error = conversion_error(material, evaluate, native_albedo(native), data)
+    error = conversion_error(material, pbrt_evaluator(q), native_albedo(native), data)
     notes = (
         *notes,
         "fitted and evaluated here from pbrt-v4's formulas (height-correlated G, exact "
@@ -120,7 +113,7 @@ def _mitsuba_document(material: Material, data) -> tuple:
 
 def _closer_of(material: Material, data, blend: tuple) -> tuple:
     """The blend stand-in or a fitted ``principled``, whichever errs less."""
-    aniso = get_model(material.model).classification.symmetry == "anisotropic"
+    aniso = material.anisotropic
     name = "mitsuba_principled" + ("_anisotropic" if aniso else "")
     candidate = to_native(material, name, data)
     errors = [rms_log_error(material, m.evaluate, data) for m in (blend[1], candidate)]

@@ -78,7 +78,14 @@ CLOSE = 0.005
 _REFERENCE = "pbrt-v4 (M. Pharr, W. Jakob, G. Humphreys), materials.cpp, bxdfs.h"
 _ANISOTROPIC = Classification("physical", "anisotropic", "cosine", "material")
 
-__all__ = ["FORMS", "pbrt_parameters", "pbrt_statement", "pbrt_model", "pbrt_values"]
+__all__ = [
+    "FORMS",
+    "pbrt_evaluator",
+    "pbrt_parameters",
+    "pbrt_statement",
+    "pbrt_model",
+    "pbrt_values",
+]
 
 
 def _spec_design(geometry, shape) -> np.ndarray:
@@ -177,7 +184,7 @@ def _conductor(material: Material, data) -> tuple:
     f0 = float(fresnel_conductor(np.ones(1), p["eta"], p["k"])[0])
     q = {"form": "conductor", "uroughness": float(p["alpha_u"]), "vroughness": float(p["alpha_v"])}
     q["reflectance"] = np.clip(ks * f0, 0.0, R_MAX).tolist()
-    errors = [rms_log_error(material, _evaluator(x), data) for x in (q_grey, q)]
+    errors = [rms_log_error(material, pbrt_evaluator(x), data) for x in (q_grey, q)]
     if errors[0] <= errors[1]:
         return q_grey, ()
     note = (
@@ -259,7 +266,8 @@ def pbrt_model(q: dict) -> Model:
     )
 
 
-def _evaluator(q: dict):
+def pbrt_evaluator(q: dict):
+    """``evaluate(wi, wo) -> (N, 3)``: the pbrt BRDF of parameters ``q`` at any directions."""
     from ..data.geometry import Geometry
 
     def evaluate(wi, wo):
@@ -280,7 +288,9 @@ def pbrt_parameters(material: Material, data=None, forms=FORMS) -> tuple:
         )
     build = {"conductor": _conductor, "coateddiffuse": _coated, "mix": _mix}
     candidates = {f: build[f](material, data) for f in forms}
-    errors = {f: rms_log_error(material, _evaluator(q), data) for f, (q, _) in candidates.items()}
+    errors = {
+        f: rms_log_error(material, pbrt_evaluator(q), data) for f, (q, _) in candidates.items()
+    }
     lowest = min(errors.values())
     best = next(f for f in FORMS if f in errors and errors[f] <= lowest + CLOSE)
     q, notes = candidates[best]
