@@ -137,7 +137,7 @@ class _VisibleNormals:
         t1[flat] = (1.0, 0.0, 0.0)
         t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
         self.ax, self.ay = ax, ay
-        self.v, self.s, self.t1, self.t2 = v.T[..., None], s.T[..., None], t1.T[..., None], None
+        self.v, self.s, self.t1 = v.T[..., None], s.T[..., None], t1.T[..., None]
         self.t2 = np.cross(s, t1).T[..., None]
         self.blend = 0.5 * (1.0 + s[:, 2:3])
 
