@@ -49,32 +49,44 @@ ALPHA = 1e-6
 EXACT = 1e-6
 
 
-def _angles(data) -> tuple[np.ndarray, np.ndarray]:
-    """theta_h and theta_d of every sample (Rusinkiewicz 1998)."""
+def _keys(data) -> tuple[np.ndarray, np.ndarray]:
+    """Sort keys of theta_h and theta_d of every sample (Rusinkiewicz 1998): ``-N.H``
+    and ``-V.H``, which order the samples as the angles do (``arccos`` decreases)
+    without computing them; the cosines of the data's geometry where every pair is
+    above the horizon (the models have usually computed them), else from ``H = L + V``
+    (``V.H = |L + V| / 2``, as :attr:`Geometry.cos_d`)."""
+    geometry = data.geometry() if hasattr(data, "geometry") else None
+    if geometry is not None and geometry.all_valid:
+        return np.negative(geometry.cos_h), np.negative(geometry.cos_d)
     h = data.wi + data.wo
-    h = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
-    theta_h = np.arccos(np.clip(h[:, 2], -1.0, 1.0))
-    theta_d = np.arccos(np.clip(np.einsum("ij,ij->i", data.wi, h), -1.0, 1.0))
-    return theta_h, theta_d
+    length = np.sqrt(np.einsum("ij,ij->i", h, h))
+    cos_h = h[:, 2] / np.maximum(length, 1e-300)
+    return np.negative(cos_h, out=cos_h), np.multiply(length, -0.5, out=length)
 
 
 #: Key of the two sample orders in :meth:`brdffit.data.geometry.Geometry.cached`.
 ORDERS_KEY = "misfit.orders"
 
 
+def _lexsort(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
+    """``np.lexsort((secondary, primary))`` as two stable sorts (least significant key
+    first): the same order, about twice as fast on a MERL file."""
+    first = np.argsort(secondary, kind="stable")
+    return first[np.argsort(primary[first], kind="stable")]
+
+
 def _sort_orders(data) -> tuple[np.ndarray, np.ndarray]:
     """Every sample's index, ordered by ``(theta_h, theta_d)`` and by ``(theta_d, theta_h)``.
 
-    ``np.lexsort`` is stable (ties of both angles keep the samples' order), so the
-    order of a subset of the samples is this order with the others left out.
-    Kept as 32-bit indices where they fit: half the memory of the cache (a whole
-    MERL file's fit peaked past 600 MB with 64-bit ones).
+    Stable sorts: ties of both angles keep the samples' order, so the order of a
+    subset of the samples is this order with the others left out. Kept as 32-bit
+    indices where they fit: half the memory of the cache (a whole MERL file's fit
+    peaked past 600 MB with 64-bit ones).
     """
-    theta_h, theta_d = _angles(data)
-    kind = np.int32 if theta_h.size < 2**31 else np.intp
+    key_h, key_d = _keys(data)
+    kind = np.int32 if key_h.size < 2**31 else np.intp
     return tuple(
-        np.lexsort(keys).astype(kind, copy=False)
-        for keys in ((theta_d, theta_h), (theta_h, theta_d))
+        _lexsort(*keys).astype(kind, copy=False) for keys in ((key_h, key_d), (key_d, key_h))
     )
 
 

@@ -43,8 +43,9 @@ def _reference_runs(z):
 
 
 def reference(data, z, keep, n_params, chi2_known):
-    """``misfit_test`` as it was before the orders were cached (commit 6f433e4)."""
-    theta_h, theta_d = misfit._angles(data)
+    """``misfit_test`` as it was before the orders were cached (commit 6f433e4), on the
+    sort keys of the angles (:func:`test_the_keys_order_the_samples_by_their_angles`)."""
+    theta_h, theta_d = misfit._keys(data)
     z, theta_h, theta_d = z[keep], theta_h[keep], theta_d[keep]
     c = z.shape[1]
     best = (-np.inf, 1.0, "theta_h")
@@ -136,8 +137,8 @@ def test_a_second_test_on_the_same_geometry_does_not_sort_again(monkeypatch):
     runs = [(data, noise, every), (data, lobe, some), (other, lobe, every), (data, lobe, every)]
     want = [reference(d, z, k, 4, True) for d, z, k in runs]
     calls = []
-    angles = misfit._angles
-    monkeypatch.setattr(misfit, "_angles", lambda d: calls.append(d) or angles(d))
+    angles = misfit._keys
+    monkeypatch.setattr(misfit, "_keys", lambda d: calls.append(d) or angles(d))
     for (d, z, k), w in zip(runs, want):
         assert_equal(misfit_test(d, z, k, 4, True), w)
     assert [want[0]["detected"], want[3]["detected"]] == [False, True]
@@ -146,10 +147,33 @@ def test_a_second_test_on_the_same_geometry_does_not_sort_again(monkeypatch):
 
 def test_a_fit_and_its_refit_sort_once(monkeypatch):
     calls = []
-    angles = misfit._angles
-    monkeypatch.setattr(misfit, "_angles", lambda data: calls.append(data) or angles(data))
+    angles = misfit._keys
+    monkeypatch.setattr(misfit, "_keys", lambda data: calls.append(data) or angles(data))
     data = make_data("ward", {"kd": 0.2, "ks": 0.3, "alpha": 0.15}, n=600)
     for model in ("ward", "blinn"):
         result = brdffit.fit(data, model, loss="l2", global_evals=200, local_evals=200)
         assert result.misfit["ordered_by"] in ("theta_h", "theta_d")
     assert len(calls) == 1
+
+
+@pytest.mark.parametrize("pairs", [tied_pairs, lambda: hemisphere_pairs(900, seed=6)])
+def test_the_keys_order_the_samples_by_their_angles(pairs):
+    """The orders sort by the angles themselves, computed here from their definitions
+    (arccos of N.H and of L.H, H the unit half vector), ties by the other angle."""
+    wi, wo = pairs()
+    h = wi + wo
+    length = np.linalg.norm(h, axis=1, keepdims=True)
+    wi, wo, h = wi[length[:, 0] > 1e-6], wo[length[:, 0] > 1e-6], h / np.maximum(length, 1e-300)
+    h = h[length[:, 0] > 1e-6]  # L = -V: no half vector, no angles
+    data = brdffit.Measurements(wi, wo, np.ones((len(wi), 1)))
+    theta_h = np.arccos(np.clip(h[:, 2], -1, 1))
+    theta_d = np.arccos(np.clip(np.sum(wi * h, axis=1), -1, 1))
+    by_h, by_d = misfit._sort_orders(data)
+    key_h, key_d = misfit._keys(data)
+    assert sorted(by_h) == list(range(data.n)) and sorted(by_d) == list(range(data.n))
+    for first, second, key, order in ((theta_h, theta_d, key_h, by_h),
+                                      (theta_d, theta_h, key_d, by_d)):  # fmt: skip
+        assert np.all(np.diff(first[order]) >= -1e-12)
+        tied = np.diff(key[order]) == 0  # equal keys: equal angles, by the other angle
+        assert tied.sum() > (10 if pairs is tied_pairs else -1)
+        assert np.all(np.diff(second[order])[tied] >= -1e-12)
