@@ -97,8 +97,9 @@ def fit(data, model, **options) -> FitResult:
     problem, found, code, noise = reweight(problem, found, code, opts, t0)
     # An energy-conserving fit: checked, and polished again where albedo passes 1.
     problem, found, code, energy = enforce_energy(problem, found, code, opts, t0)
-    result = _result(problem, found, code, opts, perf_counter() - t0, energy)
+    result, pred = _result(problem, found, code, opts, perf_counter() - t0, energy)
     result = replace(result, **assess(problem, result, noise))
+    del pred  # the fitted prediction, shared by the metrics and the misfit verdict
     result = refit_on_misfit(fit, data, model, options, result)
     if opts.uncertainty:
         result = _with_posterior(data, result, opts, t0)
@@ -251,8 +252,9 @@ def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:
 
 def _result(
     problem: Problem, found, code, opts: FitOptions, seconds: float, energy=None
-) -> FitResult:
-    """The FitResult of the search's best point."""
+) -> tuple[FitResult, np.ndarray]:
+    """The FitResult of the search's best point, and the prediction there (N, C), which
+    :meth:`Problem.predict` gives to later callers while it is held."""
     if found.best is None:
         raise FitError(
             "the fit stopped before its first evaluation (timeout or max_evals)", "timeout"
@@ -265,7 +267,6 @@ def _result(
     pred = problem.predict(params)  # held while exact_loss shares it (Problem.predict)
     metrics = metrics_of(pred, y, ctx, n_params)
     loss = problem.exact_loss(params)
-    del pred
     converged = code in CONVERGED and found.best.loss < BAD_LOSS and not found.stopped
     at_bounds = _at_bounds(problem, found.best_x if problem.dim else (), params)
     deadline = None if opts.timeout is None else (perf_counter() - seconds) + opts.timeout
@@ -280,7 +281,7 @@ def _result(
     if energy is not None:
         metrics["max_albedo"] = energy.top
         message += energy.note()
-    return FitResult(
+    result = FitResult(
         model=problem.model.name,
         params=params,
         loss=loss,
@@ -301,6 +302,7 @@ def _result(
         weights=opts.weights,
         unidentified=unidentified,
     )
+    return result, pred
 
 
 def _unidentified(problem: Problem, params: Mapping, deadline=None) -> dict:

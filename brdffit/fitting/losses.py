@@ -91,11 +91,14 @@ class Loss:
     def value(self, pred: np.ndarray, ctx: LossContext) -> float:
         """The exact loss of predictions ``pred`` (M, C) against ``ctx.y``."""
         d = self.transform(pred, ctx) - self.target(ctx)
-        d2 = d * d
-        if ctx.weights is not None:
+        if ctx.weights is None:
+            d = d.reshape(len(d), -1)
+            total = float(np.einsum("mc,mc->", d, d))  # no squared copy (26 MB on MERL)
+        else:
+            d2 = d * d
             d2 *= ctx.weights[:, None]
-        total = float(d2.sum())
-        return total if self.is_sum else total / d2.size
+            total = float(d2.sum())
+        return total if self.is_sum else total / d.size
 
     def norm(self, ctx: LossContext) -> float:
         return 1.0 if self.is_sum else float(ctx.y.size)

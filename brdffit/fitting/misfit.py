@@ -220,14 +220,14 @@ def assess(problem, result, noise) -> dict:
     chi2_known = noise is None and problem.loss.name == "chi2"
     k = result.n_params + (2 if noise is not None else 0)
     misfit = misfit_test(problem.data, z, keep, k, chi2_known)
-    if misfit["detected"] and _exact(problem, params):
+    if misfit["detected"] and _exact(problem, result):
         note = f"to the fit's precision ({EXACT:g} of their rms)"
         message = f"no misfit: the model reproduces the data {note}; {misfit['message']}"
         misfit.update(detected=False, message=message)
     metrics = dict(result.metrics)
     if noise is not None:
         metrics["mixed"] = result.loss  # the mixed loss needs the fit's noise model
-    base = _minus_two_log_likelihood(problem, params, noise, z)
+    base = _minus_two_log_likelihood(problem, params, noise, z, result.loss)
     if base is not None:
         metrics["aic"] = base + 2 * k
         metrics["bic"] = base + k * math.log(result.n_values)
@@ -240,12 +240,13 @@ def assess(problem, result, noise) -> dict:
     }
 
 
-def _exact(problem, params) -> bool:
-    """Whether the fit reproduces the data to its precision: residual rms below
-    :data:`EXACT` times the data's (noiseless data; signs of its last digits are not misfit)."""
-    y = np.asarray(problem.data.values, dtype=float)
-    r = problem.predict(params) - y
-    return bool(np.sqrt(np.mean(r * r)) <= EXACT * np.sqrt(np.mean(y * y)))
+def _exact(problem, result) -> bool:
+    """Whether the fit reproduces the data to its precision: residual rms (the fit's
+    ``rmse`` metric) below :data:`EXACT` times the data's (noiseless data; signs of its
+    last digits are not misfit)."""
+    y = np.asarray(problem.data.values, dtype=float).reshape(result.n_samples, -1)
+    y_rms = math.sqrt(float(np.einsum("mc,mc->", y, y)) / y.size)
+    return bool(result.metrics["rmse"] <= EXACT * y_rms)
 
 
 def noise_record(problem, noise) -> dict:
@@ -263,11 +264,12 @@ def noise_record(problem, noise) -> dict:
     }
 
 
-def _minus_two_log_likelihood(problem, params, noise, z) -> float | None:
+def _minus_two_log_likelihood(problem, params, noise, z, loss: float) -> float | None:
     """``-2 ln L`` up to a constant common to every model on the same data: Gaussian
     with the fitted noise model, or, for a loss without one, with one unknown variance
-    on its (weighted) transformed residuals profiled out, ``n ln(S / n)``. None for
-    chi2, whose metrics already use the data's sigma."""
+    on its (weighted) transformed residuals profiled out, ``n ln(S / n)`` (``S`` from
+    the fit's exact ``loss``). None for chi2, whose metrics already use the data's
+    sigma."""
     if noise is not None:
         pred = problem.predict(params)
         s2 = noise.sigma(pred) ** 2
@@ -279,7 +281,7 @@ def _minus_two_log_likelihood(problem, params, noise, z) -> float | None:
     if problem.loss.name == "chi2":
         return None
     n = problem.data.values.size
-    total = max(problem.exact_loss(params) * problem.norm, 1e-300)
+    total = max(loss * problem.norm, 1e-300)
     return n * math.log(total / n)
 
 
