@@ -330,14 +330,7 @@ def combine(design: Design, coefs: Sequence, m: int) -> np.ndarray:
     two_d = [np.shape(a)[1] for a in (*design.columns, design.offset) if np.ndim(a) == 2]
     per_channel = bool(two_d) or any(np.ndim(c) == 1 for c in coefs)
     if per_channel:
-        n_ch = max([np.size(c) for c in coefs] + two_d)
-        out = np.zeros((m, n_ch))
-        if design.offset is not None:
-            out += design.offset if np.ndim(design.offset) == 2 else design.offset[:, None]
-        for col, c in zip(design.columns, coefs):
-            c = np.broadcast_to(np.asarray(c, dtype=float), (n_ch,))
-            out += col * c if np.ndim(col) != 1 else np.multiply.outer(col, c)
-        return out
+        return _combine_channels(design, coefs, m, max([np.size(c) for c in coefs] + two_d))
     out = None
     constant = 0.0
     for col, c in zip(design.columns, coefs):
@@ -352,6 +345,31 @@ def combine(design: Design, coefs: Sequence, m: int) -> np.ndarray:
     if out is None:
         return np.full(m, constant)
     if constant:
+        out += constant
+    return out
+
+
+def _combine_channels(design: Design, coefs: Sequence, m: int, n_ch: int) -> np.ndarray:
+    """:func:`combine` with coefficients per channel, (M, C): each array column times
+    its coefficients once, constant columns summed into one row added last (on a MERL
+    file, 3.3 M values, a third of the passes over memory of adding every term to zeros)."""
+    out, constant = None, np.zeros(n_ch)
+    for col, c in zip(design.columns, coefs):
+        c = np.broadcast_to(np.asarray(c, dtype=float), (n_ch,))
+        if np.ndim(col) == 0:
+            constant += col * c
+            continue
+        term = col * c if np.ndim(col) == 2 else np.multiply.outer(col, c)
+        out = term if out is None else np.add(out, term, out=out)
+    if design.offset is not None:
+        offset = design.offset if np.ndim(design.offset) == 2 else design.offset[:, None]
+        if out is None:
+            out = np.array(np.broadcast_to(offset, (m, n_ch)))
+        else:
+            out += offset
+    if out is None:
+        return np.broadcast_to(constant, (m, n_ch)).copy()
+    if np.any(constant):
         out += constant
     return out
 
