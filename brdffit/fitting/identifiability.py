@@ -163,7 +163,7 @@ class _Late(Exception):
 
 #: At most this many Jacobian entries (rows x columns) are formed; above it a seeded
 #: subset of the samples is used and the information scaled back to all of them.
-MAX_ENTRIES = 4_000_000
+MAX_ENTRIES = 1_000_000
 
 
 def _fisher(problem, params: dict, deadline=None) -> dict:
@@ -330,11 +330,15 @@ def _judge(names, kinds, info, params) -> dict:
         sd = math.sqrt(max(cov[pos, pos], 0.0)) / scale[i]
         value = float(params[names[i]])
         width = math.log(10.0) * sd if kinds[i] == "log" else sd / max(abs(value), 1e-300)
-        if width > MAX_RELATIVE_WIDTH:
-            out[names[i]] = (
-                f"the data constrain it only to a relative width of {width:.3g} "
-                "(1 sigma, from the Fisher information)"
-            )
+        if width <= MAX_RELATIVE_WIDTH:
+            continue
+        if kinds[i] == "log":
+            spread = f"a relative width of {width:.3g}"
+        else:  # at or near 0 a relative width says nothing (it was printed as 1e+297)
+            spread = f"{value:.3g} +- {sd:.3g}, a relative width above {MAX_RELATIVE_WIDTH:g}"
+        out[names[i]] = (
+            f"the data constrain it only to {spread} (1 sigma, from the Fisher information)"
+        )
     return _by_parameter(out)
 
 

@@ -104,3 +104,17 @@ def test_the_command_line_says_it_in_one_line(tmp_path, capsys):
     lines = [x for x in capsys.readouterr().out.splitlines() if x.startswith("NOT IDENTIFIED")]
     assert len(lines) == 1
     assert "alpha_u, alpha_v: every sample has the incidence azimuth phi_i = 0" in lines[0]
+
+
+def test_a_linear_parameter_at_zero_is_reported_with_its_sd_not_a_relative_width():
+    """At f0 = 0 the relative width sd / |f0| is infinite: it was printed as 2.44e+297
+    (ggx on a whole MERL file of cook_torrance data). The message gives value +- sd."""
+    from brdffit.fitting.identifiability import _judge
+
+    info = np.array([[4.0, 0.0], [0.0, 1e4]])  # sd 0.5 for f0, 0.01 for alpha
+    out = _judge(["f0", "alpha"], ["linear", "log"], info, {"f0": 0.0, "alpha": 0.2})
+    assert set(out) == {"f0"}
+    assert "0 +- 0.5" in out["f0"] and "e+" not in out["f0"], out
+    out = _judge(["f0"], ["linear"], info[:1, :1], {"f0": 0.05})  # sd 10 times |f0|
+    assert "0.05 +- 0.5" in out["f0"], out
+    assert _judge(["f0"], ["linear"], info[:1, :1], {"f0": 0.6}) == {}  # width 0.83
