@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import FitError
 from .problem import BAD_LOSS, Problem
-from .schedule import FINE_STEP, note, stratified_rows, subproblem
+from .schedule import FINE_FTOL, FINE_STEP, note, stratified_rows, subproblem
 
 __all__ = [
     "CONVERGED",
@@ -148,9 +148,10 @@ class Search:
         if answer is False:
             self.stopped = STOPPED
 
-    def run(self, algorithm: str, x0, budget: int, stage: str, step=None) -> int | None:
+    def run(self, algorithm: str, x0, budget: int, stage: str, step=None, ftol=1e-12):
         """Run one nlopt stage; return nlopt's result code (None if it could not start).
-        ``step``: a local algorithm's initial step, as a share of each range."""
+        ``step``: a local algorithm's initial step, as a share of each range; ``ftol``:
+        its relative tolerance on the loss."""
         if not self.stopped and self.n_evals >= self.max_evals:
             self.stopped = BUDGET
         elif not self.stopped and time.perf_counter() > self.deadline:
@@ -158,7 +159,7 @@ class Search:
         if self.stopped:
             return None
         self.stage = stage
-        opt = self.opt = _optimiser(algorithm, self.problem, step)
+        opt = self.opt = _optimiser(algorithm, self.problem, step, ftol)
         opt.set_min_objective(self)
         opt.set_maxeval(int(min(budget, self.max_evals - self.n_evals)))
         opt.set_maxtime(max(self.deadline - time.perf_counter(), 1e-3))
@@ -188,10 +189,11 @@ class Search:
         return code
 
 
-def _optimiser(algorithm: str, problem: Problem, step=None):
+def _optimiser(algorithm: str, problem: Problem, step=None, ftol=1e-12):
     """An nlopt optimiser of ``algorithm`` on the problem's box, with the stage's
-    tolerances (the global stage runs to its budget; the polish to 1e-7 in x, its
-    initial step ``step`` of each range, 0.05 by default)."""
+    tolerances (the global stage runs to its budget; the polish to 1e-7 in x or
+    ``ftol`` relative in the loss, its initial step ``step`` of each range, 0.05 by
+    default)."""
     opt = nlopt.opt(getattr(nlopt, algorithm), problem.dim)
     opt.set_lower_bounds(problem.lower)
     opt.set_upper_bounds(problem.upper)
@@ -203,7 +205,7 @@ def _optimiser(algorithm: str, problem: Problem, step=None):
         opt.set_population(0)
     else:
         opt.set_xtol_rel(1e-7)
-        opt.set_ftol_rel(1e-12)
+        opt.set_ftol_rel(ftol)
         opt.set_initial_step((0.05 if step is None else step) * (problem.upper - problem.lower))
     return opt
 
@@ -280,7 +282,7 @@ def _coarse_to_fine(main: Search, options, x_start, have_start: bool):
     _absorb(main, sub)
     x0 = sub.best_x if sub.best is not None else x_start
     code = main.run(options.local_algorithm, x0, options.local_evals, "local on all samples",
-                    FINE_STEP)  # fmt: skip
+                    FINE_STEP, FINE_FTOL)  # fmt: skip
     if main.best is None and sub.best is not None:
         main.evaluate(sub.best_x)  # the subsample's search used up the budget or time
     main.schedule = note(sub_problem, p, sub.n_evals, main.n_evals - sub.n_evals)
