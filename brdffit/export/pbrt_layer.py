@@ -72,7 +72,6 @@ import math
 from functools import lru_cache
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from ..models import Design, Model, Param
 from ..models.base import Classification
@@ -181,6 +180,8 @@ def _pbrt_mis(geometry: tuple, alpha: float, eta: float, ok) -> np.ndarray:
 def transmittance_table(alpha: float, eta: float, thickness: float, mis: bool = False):
     """``T`` (``T'`` with ``mis``) as a cubic spline in ``sqrt(mu)`` through
     :data:`ROOTS` (module docstring)."""
+    from scipy.interpolate import CubicSpline  # here: an export's only need of it
+
     mu = np.maximum(ROOTS * ROOTS, 1e-6)
     return CubicSpline(ROOTS, _interface(mu, alpha, eta, thickness, True, mis))
 

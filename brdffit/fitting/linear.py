@@ -46,7 +46,6 @@ import itertools
 from functools import cache, lru_cache
 
 import numpy as np
-from scipy.optimize import nnls
 
 __all__ = ["Normal", "normal_equations", "solve_bounded"]
 
@@ -342,6 +341,8 @@ def _least_distance(h: np.ndarray, viol: np.ndarray) -> tuple[np.ndarray, np.nda
     f = np.zeros(k + 1)
     f[k] = 1.0
     try:
+        from scipy.optimize import nnls  # on first need: scipy.optimize takes 0.2 s to import
+
         u, _ = nnls(e, f, maxiter=10 * e.shape[1] + 50)
     except RuntimeError as exc:  # iteration limit: report as no solution
         raise np.linalg.LinAlgError(str(exc)) from None

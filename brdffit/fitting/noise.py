@@ -35,7 +35,6 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from .engine import search
 
@@ -140,6 +139,8 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     values = [profile(x)[0] for x in grid]
     i = int(np.argmin(values))
     lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, GRID - 1)]
+    from scipy.optimize import minimize_scalar  # here: scipy.optimize takes 0.2 s to import
+
     found = minimize_scalar(lambda x: profile(x)[0], bounds=(lo, hi), method="bounded",
                             options={"xatol": 1e-3})  # fmt: skip
     best = min(

@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import erf
 
 __all__ = [
     "beckmann_d",
@@ -292,6 +291,8 @@ def smith_g1_beckmann(tan2_v, alpha2) -> np.ndarray:
     np.exp(g1, out=g1)
     g1 /= a
     g1 *= 1.0 / SQRT_PI
+    from scipy.special import erf  # here: scipy.special takes 0.4 s to import
+
     g1 += erf(a)
     g1 += 1.0
     np.divide(2.0, g1, out=g1)

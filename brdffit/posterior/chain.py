@@ -34,7 +34,6 @@ import math
 import time
 from dataclasses import dataclass
 
-import emcee
 import numpy as np
 
 __all__ = [
@@ -192,7 +191,16 @@ class StudentIndependence:
 MOVE_WEIGHTS = (0.75, 0.25, 0.0)
 
 
+def _emcee():
+    """emcee, imported on the first posterior: it imports scipy.stats (0.3 s), which
+    a fit without a posterior does not need."""
+    import emcee
+
+    return emcee
+
+
 def _moves(proposal):
+    emcee = _emcee()
     kinds = (emcee.moves.MHMove(proposal), emcee.moves.DEMove(), emcee.moves.DESnookerMove())
     return [(move, w) for move, w in zip(kinds, MOVE_WEIGHTS) if w > 0]
 
@@ -261,6 +269,7 @@ def run_chain(target, start, proposal, steps, max_steps, deadline, seed, progres
     """Run until converged (``steps="auto"``) or for ``steps`` steps, within the deadline."""
     walkers, dim = start.shape
     moves = _moves(proposal)
+    emcee = _emcee()
     sampler = emcee.EnsembleSampler(walkers, dim, target.log_prob, vectorize=True, moves=moves)
     sampler.random_state = np.random.RandomState(seed).get_state()
     auto = steps == "auto"

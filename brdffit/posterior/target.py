@@ -66,7 +66,6 @@ Samples below the horizon, where every model is 0, enter with ``f = 0``.
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import log_ndtr
 
 from ..errors import FitError
 from ..fitting.losses import LossContext
@@ -301,6 +300,8 @@ class Target:
             # Each half-space adds its own one-dimensional mass, as the bounds do.
             mean = beta @ self.rows.T
             var = np.einsum("rk,wckl,rl->wcr", self.rows, inv, self.rows) / lam[..., None]
+            from scipy.special import log_ndtr  # here: 0.4 s to import
+
             logp += log_ndtr((self.bounds - mean) / np.sqrt(var)).sum(axis=2)
         total = logp.sum(axis=1)
         total[bad] = -np.inf

@@ -9,7 +9,6 @@ needs of such a distribution, accurate in the tails.
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import log_ndtr, ndtr, ndtri
 
 __all__ = ["log_mass", "truncated_normal", "draw_box_gaussian", "LOG_2PI"]
 
@@ -24,6 +23,8 @@ def log_mass(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     very short intervals use the midpoint rule ``(b - a) phi((a + b)/2)``, whose
     relative error is of order ``(b - a)^2``.
     """
+    from scipy.special import log_ndtr  # here: scipy.special takes 0.4 s to import
+
     flip = a > 0
     lo, hi = np.where(flip, -b, a), np.where(flip, -a, b)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -41,6 +42,8 @@ def truncated_normal(mean, sd, lo, hi, rng: np.random.Generator) -> np.ndarray:
     a, b = (lo - mean) / sd, (hi - mean) / sd
     flip = a > 0
     a2, b2 = np.where(flip, -b, a), np.where(flip, -a, b)
+    from scipy.special import ndtr, ndtri
+
     pa, pb = ndtr(a2), ndtr(b2)
     z = ndtri(pa + rng.uniform(size=np.shape(mean)) * (pb - pa))
     z = np.where(flip, -z, z)

@@ -57,10 +57,10 @@ def reference(data, z, keep, n_params, chi2_known):
         i = int(np.argmax(stat))
         if stat[i] > best[0]:
             best = (float(stat[i]), float(runs[i] / max(expected[i], 1.0)), name)
-    threshold = float(norm.isf(ALPHA / (2 * c)))
+    threshold = misfit._upper_quantile(ALPHA / (2 * c))
     dof = max(z.size - n_params, 1)
     reduced = float(np.sum(z * z) / dof)
-    chi2_bad = chi2_known and reduced > 1.0 + float(norm.isf(ALPHA)) * math.sqrt(2.0 / dof)
+    chi2_bad = chi2_known and reduced > 1.0 + misfit._upper_quantile(ALPHA) * math.sqrt(2.0 / dof)
     detected = bool(best[0] > threshold or chi2_bad)
     return {
         "detected": detected,
@@ -177,3 +177,10 @@ def test_the_keys_order_the_samples_by_their_angles(pairs):
         tied = np.diff(key[order]) == 0  # equal keys: equal angles, by the other angle
         assert tied.sum() > (10 if pairs is tied_pairs else -1)
         assert np.all(np.diff(second[order])[tied] >= -1e-12)
+
+
+@pytest.mark.parametrize("p", [ALPHA, ALPHA / 2, ALPHA / 6, ALPHA / 62, 0.05, 0.5])
+def test_the_threshold_is_the_normal_upper_quantile(p):
+    """The thresholds come from the standard library (scipy.stats is not imported with
+    brdffit); they are scipy's ``norm.isf`` to round-off."""
+    assert misfit._upper_quantile(p) == pytest.approx(norm.isf(p), rel=1e-14, abs=1e-15)

@@ -1,0 +1,51 @@
+"""What `import brdffit` and a small fit load (issue 13's cold start).
+
+A command-line fit of a small file paid 1.3 s of imports before it read a byte:
+scipy.stats (emcee imports it, the misfit threshold used it), scipy.optimize,
+scipy.interpolate and scipy.special, none needed by such a fit. They are now
+imported where first needed; this keeps it so (each check in a fresh interpreter).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("scipy.stats", "scipy.optimize", "scipy.interpolate", "scipy.special", "emcee", "numba")
+
+
+def _loaded(code: str) -> list:
+    """The HEAVY modules loaded after running ``code`` in a fresh interpreter."""
+    probe = f"{code}\nimport json, sys\nprint(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))"
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=True, cwd=ROOT
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_importing_brdffit_loads_none_of_the_heavy_modules():
+    assert _loaded("import brdffit") == []
+
+
+def test_a_small_ward_fit_loads_none_of_them():
+    code = (
+        "import brdffit\n"
+        "r = brdffit.fit(brdffit.read('data_synthetic/ward.csv'), 'ward')\n"
+        "assert r.converged and r.misfit is not None"
+    )
+    assert _loaded(code) == []
+
+
+def test_they_load_where_needed():
+    """The modules still come when their work does: a Beckmann fit (erf), a posterior."""
+    code = (
+        "import brdffit\n"
+        "d = brdffit.read('data_synthetic/beckmann.csv')\n"
+        "r = brdffit.fit(d, 'beckmann', uncertainty=True,"
+        " posterior_options={'steps': 20, 'walkers': 8})"
+    )
+    loaded = _loaded(code)
+    assert "scipy.special" in loaded and "emcee" in loaded
