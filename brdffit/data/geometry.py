@@ -152,12 +152,16 @@ class Geometry:
 
     @cached_property
     def _half_norm(self) -> np.ndarray:
-        return np.linalg.norm(self.wi + self.wo, axis=1)
+        """``|L + V|`` (einsum: no squared copy of L + V, as np.linalg.norm makes)."""
+        total = self.wi + self.wo
+        return np.sqrt(np.einsum("ij,ij->i", total, total))
 
     @cached_property
     def half(self) -> np.ndarray:
         """Unit half vector H = (L + V) / |L + V|, shape (M, 3)."""
-        return (self.wi + self.wo) / np.maximum(self._half_norm, 1e-300)[:, None]
+        total = self.wi + self.wo
+        total /= np.maximum(self._half_norm, 1e-300)[:, None]
+        return total
 
     @cached_property
     def cos_h(self) -> np.ndarray:
