@@ -58,10 +58,8 @@ def _draw(geometry, size: int, seed: int) -> np.ndarray:
     from a random start (Cochran 1977, sec. 8.6: on a list ordered by strata it is
     proportional stratified sampling, each cell within one sample of its share, and
     within a cell it spreads the picks over the data's own order)."""
-    total = geometry.wi + geometry.wo
-    norm = np.maximum(np.sqrt(np.einsum("ij,ij->i", total, total)), 1e-300)
-    theta_h = np.arccos(np.clip(total[:, 2] / norm, 0.0, 1.0))
-    theta_d = np.arccos(np.clip(0.5 * norm, 0.0, 1.0))
+    theta_h = np.arccos(geometry.cos_h)  # the geometry's, which the models share
+    theta_d = np.arccos(geometry.cos_d)
     scale = BINS / (0.5 * np.pi)
     cell = np.minimum(theta_h * scale, BINS - 1).astype(np.int16) * BINS
     cell += np.minimum(theta_d * scale, BINS - 1).astype(np.int16)
