@@ -234,7 +234,11 @@ def _start(problem: Problem, start) -> np.ndarray | None:
 
 def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:
     """The free parameters at a bound of their range: shape parameters in the search
-    space, linear ones (kd, ks...) in any channel (the solve clips them there)."""
+    space, linear ones (kd, ks...) in any channel (the solve clips them there), each
+    within 1e-6 of its range (of 1 for a linear one with a wider range). The polish
+    stops at 1e-7 relative in the shape parameters, and a coefficient the data put at
+    its bound comes out up to 7e-8 from it (measured: kd of 18 noiseless blinn fits
+    with kd = 0; at 1e-9 of its range 10 of them were not reported)."""
     out = []
     for p, v, lo, hi in zip(problem.free_shape, x, problem.lower, problem.upper):
         tol = 1e-6 * max(hi - lo, 1e-12)
@@ -244,7 +248,7 @@ def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:
         if p.name in problem.fixed:
             continue
         value = np.asarray(params[p.name], dtype=float)
-        tol = 1e-9 * ((p.upper if np.isfinite(p.upper) else 1.0) - p.lower)
+        tol = 1e-6 * min((p.upper if np.isfinite(p.upper) else 1.0) - p.lower, 1.0)
         if np.any(value <= p.lower + tol) or np.any(value >= p.upper - tol):
             out.append(p.name)
     return tuple(out)
