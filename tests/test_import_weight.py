@@ -19,7 +19,8 @@ HEAVY = ("scipy.stats", "scipy.optimize", "scipy.interpolate", "scipy.special", 
 
 def _loaded(code: str) -> list:
     """The HEAVY modules loaded after running ``code`` in a fresh interpreter."""
-    probe = f"{code}\nimport json, sys\nprint(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))"
+    report = f"print(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))"
+    probe = f"{code}\nimport json, sys\n{report}"
     out = subprocess.run(
         [sys.executable, "-c", probe], capture_output=True, text=True, check=True, cwd=ROOT
     )
