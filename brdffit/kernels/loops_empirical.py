@@ -4,9 +4,10 @@ parameter-dependent base: Lafortune, Ohara, Fournier, Gaussian and Wang.
 As in :mod:`brdffit.kernels.loops`, each loop writes ``out[i] = b + a * lobe_i``
 (``a = 1, b = 0``: the lobe column; ``a = ks, b = kd/pi``: the BRDF) in one pass, and
 the lobe's positive scale is added to its exponent (``ln a``), so that
-:func:`~brdffit.kernels._compile.fast_exp`'s flush of results under 3.3e-308 never
+:func:`~brdffit.kernels.elementary.fast_exp_short`'s flush of results under 3.3e-308 never
 loses a value numpy keeps. Powers of a base that depends on a parameter are
-``exp(n ln base)`` with :func:`~brdffit.kernels.fastlog.fast_log`, vectorised.
+``exp(n ln base)`` with :func:`~brdffit.kernels.elementary.fast_log`, vectorised,
+and every loop asks for 512-bit vectors (:mod:`brdffit.kernels.wide`).
 
 Where the numpy formula cancels (Lafortune's base ``cxy (L.V)_xy + (L.V)_z`` is
 ``R.V`` at ``cxy = -1``, Fournier's tilted cosine ``(N.H) c - t c (H.T)``, Wang's
@@ -32,8 +33,9 @@ import math
 
 import numba
 
-from ._compile import FLAGS, fast_exp, jit
-from .fastlog import fast_log, fast_log1p
+from ._compile import FLAGS, jit
+from .elementary import fast_exp_short, fast_log, fast_log1p
+from .wide import prefer_wide_vectors
 
 #: The fast-math flags of the helpers that round as numpy does (no fused
 #: multiply-add): see the module docstring.
@@ -55,26 +57,28 @@ def _wang_power(cos2, mz, m, dm):
 @jit
 def gaussian(theta2_h, half_n, a, b, out):
     """``exp(-n theta_h^2 / 2)``; ``half_n`` is ``n / 2``."""
+    prefer_wide_vectors()
     if a <= 0.0:
         out[:] = b
         return out
     log_a = math.log(a)
     for i in range(out.shape[0]):
-        out[i] = b + fast_exp(log_a - half_n * theta2_h[i])
+        out[i] = b + fast_exp_short(log_a - half_n * theta2_h[i])
     return out
 
 
 @jit
 def lafortune(dot_xy, dot_z, cxy, n, a, b, out):
     """``max(0, cxy (Lx Vx + Ly Vy) + Lz Vz)^n`` (``ln 0`` is
-    :data:`~brdffit.kernels.fastlog.LOG_ZERO`, whose ``n``-th multiple gives 0)."""
+    :data:`~brdffit.kernels.elementary.LOG_ZERO`, whose ``n``-th multiple gives 0)."""
+    prefer_wide_vectors()
     if a <= 0.0:
         out[:] = b
         return out
     log_a = math.log(a)
     for i in range(out.shape[0]):
         base = _product_plus(dot_xy[i], cxy, dot_z[i])
-        out[i] = b + fast_exp(n * fast_log(base) + log_a)
+        out[i] = b + fast_exp_short(n * fast_log(base) + log_a)
     return out
 
 
@@ -82,6 +86,7 @@ def lafortune(dot_xy, dot_z, cxy, n, a, b, out):
 def ohara(tan2_t, tan2_b, inv_a2, inv_b2, n, a, b, out):
     """``(1 + tan2_t/a^2 + tan2_b/b^2)^(-n/2)`` as ``exp(-n/2 log1p(...))``
     (``tan2_t``, ``tan2_b``: ``(H.T / N.H)^2``, ``(H.B / N.H)^2``)."""
+    prefer_wide_vectors()
     if a <= 0.0:
         out[:] = b
         return out
@@ -89,7 +94,7 @@ def ohara(tan2_t, tan2_b, inv_a2, inv_b2, n, a, b, out):
     half_n = 0.5 * n
     for i in range(out.shape[0]):
         x = tan2_t[i] * inv_a2 + tan2_b[i] * inv_b2
-        out[i] = b + fast_exp(log_a - half_n * fast_log1p(x))
+        out[i] = b + fast_exp_short(log_a - half_n * fast_log1p(x))
     return out
 
 
@@ -101,6 +106,7 @@ def fournier(log_cos_h, cos_h, half_t, n, t, a, b, out):
     (``hi >= mid >= lo`` the sorted ``l_k``): a term is flushed to 0 only where it is
     below 3e-308 of the largest, never while the sum keeps it (numpy's subnormal
     terms beside a sum of 1e-300)."""
+    prefer_wide_vectors()
     if a <= 0.0:
         out[:] = b
         return out
@@ -114,8 +120,8 @@ def fournier(log_cos_h, cos_h, half_t, n, t, a, b, out):
         minus = n * fast_log(_product_plus(cos_h[i], inv, -side))
         top, low = max(centre, plus), min(centre, plus)
         hi, mid, lo = max(top, minus), max(low, min(top, minus)), min(low, minus)
-        tail = 1.0 + (fast_exp(mid - hi) + fast_exp(lo - hi))
-        out[i] = b + fast_exp(hi + log_a) * tail
+        tail = 1.0 + (fast_exp_short(mid - hi) + fast_exp_short(lo - hi))
+        out[i] = b + fast_exp_short(hi + log_a) * tail
     return out
 
 
@@ -124,6 +130,7 @@ def wang(log_cos_h, cos2_phi_h, m, zeta, a, b, out):
     """Wang's ``(N.H)^(m zeta / (m - (m - zeta) cos^2 phi_h))``: the exponent rounded
     as numpy does (``m - (m - zeta) cos^2`` cancels when ``m >> zeta``), its ``exp``
     with fused multiply-adds."""
+    prefer_wide_vectors()
     if a <= 0.0:
         out[:] = b
         return out
@@ -131,5 +138,5 @@ def wang(log_cos_h, cos2_phi_h, m, zeta, a, b, out):
     mz, dm = m * zeta, m - zeta
     for i in range(out.shape[0]):
         power = _wang_power(cos2_phi_h[i], mz, m, dm)
-        out[i] = b + fast_exp(power * log_cos_h[i] + log_a)
+        out[i] = b + fast_exp_short(power * log_cos_h[i] + log_a)
     return out

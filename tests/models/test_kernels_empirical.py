@@ -1,4 +1,4 @@
-"""The vectorisable logarithm of brdffit.kernels.fastlog and the loops of
+"""The vectorisable logarithm of brdffit.kernels.elementary and the loops of
 brdffit.kernels.loops_empirical where they must round as numpy does.
 
 Every compiled model is also compared with its numpy design over its whole
@@ -20,13 +20,13 @@ pytestmark = [NEEDS_KERNELS, pytest.mark.usefixtures("compiled_for_every_size")]
 
 
 def _runner(name: str):
-    """A compiled loop applying ``brdffit.kernels.fastlog.<name>`` to an array."""
+    """A compiled loop applying ``brdffit.kernels.elementary.<name>`` to an array."""
     import numba
 
-    from brdffit.kernels import fastlog
+    from brdffit.kernels import elementary
     from brdffit.kernels._compile import FLAGS
 
-    function = getattr(fastlog, name)
+    function = getattr(elementary, name)
 
     @numba.njit(fastmath=FLAGS)
     def run(x, out):
@@ -56,7 +56,7 @@ def test_fast_log_is_accurate_to_rounding_from_subnormal_to_huge_arguments():
 
 
 def test_fast_log_of_zero_is_a_finite_log_zero_whose_power_is_zero():
-    from brdffit.kernels.fastlog import LOG_ZERO
+    from brdffit.kernels.elementary import LOG_ZERO
 
     got = _runner("fast_log")(np.array([0.0, -0.0, -3.0]))
     np.testing.assert_array_equal(got, LOG_ZERO)
@@ -82,6 +82,31 @@ def test_fast_log1p_is_accurate_for_tiny_and_large_arguments():
     assert (got[~nonzero] == 0.0).all()
     tiny = x[(x > 0) & (x < 1e-17)]
     np.testing.assert_array_equal(_runner("fast_log1p")(tiny), tiny)
+
+
+def test_fast_exp_short_is_accurate_to_rounding_and_flushes_below_its_minimum():
+    from brdffit.kernels._compile import EXP_MIN
+
+    x = np.concatenate(
+        [np.random.default_rng(4).uniform(-720.0, 709.0, 200_000), [0.0, -1e-300, -1e304]]
+    )
+    got = _runner("fast_exp_short")(x)
+    normal = x >= EXP_MIN
+    rel = np.abs(got[normal] / np.exp(x[normal]) - 1.0)
+    assert rel.max() < 3e-16, rel.max()
+    assert (got[~normal] == 0.0).all() and (~normal).sum() > 1000
+
+
+def test_the_log_series_polynomial_is_the_stored_one_and_close_to_the_series():
+    """fit_log_series() reproduces G, and G is within 1e-15 of the series it replaces
+    (which moves ln(1 + f) by at most Z_MAX/2 of that: 1.5e-17 relative)."""
+    from brdffit.kernels import elementary
+
+    coefficients, error = elementary.fit_log_series()
+    np.testing.assert_allclose(coefficients, elementary.G, rtol=1e-12, atol=0)
+    z = np.linspace(0.0, elementary.Z_MAX, 100_001)
+    stored = np.max(np.abs(np.polyval(elementary.G, z) - elementary.log_series(z)))
+    assert error < 1e-15 and stored < 1e-15, (error, stored)
 
 
 def _compiled_and_numpy(name: str, wi, wo, params: dict) -> tuple:
