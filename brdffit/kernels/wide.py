@@ -7,8 +7,10 @@ is bound by memory and not by arithmetic. The loops of
 :mod:`brdffit.kernels.loops_empirical` are bound by arithmetic (a ``log`` and an
 ``exp`` per pair, about 60 vector instructions per four pairs, the same throughput in
 the cache and streamed from memory): on the machine of ``benchmarks/`` (Intel Xeon,
-AVX-512) they run 30 to 45 % faster with eight lanes (measured in one run, each
-loop both ways). A function that calls :func:`prefer_wide_vectors` gets the LLVM
+AVX-512) they run 25 to 72 % faster with eight lanes (gaussian 72 %, wang 36 %,
+fournier 29 %, ohara 26 %, lafortune 25 %: each loop with and without the attribute,
+interleaved in one run at load 2.7, on the 1M pairs of ``bench_evaluate.py``).
+A function that calls :func:`prefer_wide_vectors` gets the LLVM
 function attribute ``"prefer-vector-width"="512"`` (the attribute clang's
 ``-mprefer-vector-width=512`` sets): on CPUs without AVX-512 it changes nothing.
 

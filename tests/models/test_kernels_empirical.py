@@ -162,3 +162,25 @@ def test_fournier_keeps_a_term_numpy_keeps_beside_a_tiny_sum():
     params = {"kd": 0.0, "ks": 1.0, "n": n, "t": t}
     got, expected = _compiled_and_numpy("fournier", wi, wo, params)
     np.testing.assert_allclose(got[hard], expected[hard], rtol=1e-11, atol=0)
+
+
+def test_a_loop_that_asks_for_wide_vectors_carries_the_attribute():
+    """prefer_wide_vectors() puts LLVM's prefer-vector-width attribute on the compiled
+    function (an llvmlite that refused it would leave the loop as it was, silently:
+    this says so)."""
+    import numba
+
+    from brdffit.kernels.wide import prefer_wide_vectors
+
+    @numba.njit
+    def wide(x):
+        prefer_wide_vectors()
+        return x + 1.0
+
+    @numba.njit
+    def plain(x):
+        return x + 1.0
+
+    assert wide(1.0) == 2.0 and plain(1.0) == 2.0
+    assert '"prefer-vector-width"="512"' in "".join(wide.inspect_llvm().values())
+    assert "prefer-vector-width" not in "".join(plain.inspect_llvm().values())
