@@ -109,6 +109,14 @@ def test_the_log_series_polynomial_is_the_stored_one_and_close_to_the_series():
     assert error < 1e-15 and stored < 1e-15, (error, stored)
 
 
+def test_the_exp_polynomial_is_the_stored_one_and_within_its_error():
+    from brdffit.kernels import elementary
+
+    coefficients, error = elementary.fit_exp_polynomial()
+    np.testing.assert_allclose(coefficients, elementary.EXP_POLYNOMIAL, rtol=1e-12, atol=0)
+    assert error < 4e-18, error  # far below double rounding (1.1e-16)
+
+
 def _compiled_and_numpy(name: str, wi, wo, params: dict) -> tuple:
     model = get_model(name)
     geometry = Geometry(wi, wo)
