@@ -3,14 +3,14 @@ parameter-dependent base: Lafortune, Ohara, Fournier, Gaussian and Wang.
 
 As in :mod:`brdffit.kernels.loops`, each loop writes ``out[i] = b + a * lobe_i``
 (``a = 1, b = 0``: the lobe column; ``a = ks, b = kd/pi``: the BRDF) in one pass, and
-the lobe's positive scale is added to its exponent (``ln a``), so that
-:func:`~brdffit.kernels.elementary.fast_exp_short`'s flush of results under 3.3e-308 never
+the lobe's positive scale is added to its exponent (``ln a``), so that the flush of
+results under 3.3e-308 by :func:`~brdffit.kernels.elementary.fast_exp_short` never
 loses a value numpy keeps. Powers of a base that depends on a parameter are
 ``exp(n ln base)`` with :func:`~brdffit.kernels.elementary.fast_log`, vectorised,
 and every loop asks for 512-bit vectors (:mod:`brdffit.kernels.wide`).
 
-Where the numpy formula cancels (Lafortune's base ``cxy (L.V)_xy + (L.V)_z`` is
-``R.V`` at ``cxy = -1``, Fournier's tilted cosine ``(N.H) c - t c (H.T)``, Wang's
+Where the numpy formula cancels (Lafortune's base ``cxy (Lx Vx + Ly Vy) + Lz Vz``
+near the cone where it is 0, Fournier's tilted cosine ``(N.H) c - (H.T) t c``, Wang's
 ``m - (m - zeta) cos^2 phi_h``), the loop must round as numpy does, product then
 sum, or its value moves far from numpy's where the result is small: those few
 operations are compiled without fused multiply-adds in helpers of their own (LLVM
@@ -19,7 +19,7 @@ them. The formulas are the numpy models' (MODELS.md), whose docstrings cite the
 primary sources:
 
 - Lafortune's generalised cosine lobe (Lafortune, Foo, Torrance and Greenberg,
-  Non-linear approximation of reflectance functions, SIGGRAPH 1997, eq. 3);
+  Non-linear approximation of reflectance functions, SIGGRAPH 1997);
 - Ohara's ellipsoid, Wang's blended exponent (as cited by Malashenkova and
   Moiseikin, Matematicheskaya morfologiya 5(4), 2006) and Fournier's tilted Phong
   lobes (Fournier, Normal distribution functions and multiple surfaces, Graphics
