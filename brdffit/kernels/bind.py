@@ -19,6 +19,7 @@ import numpy as np
 from ..models.base import INV_PI, Design
 from ..models.empirical import blake_bounds
 from . import inputs
+from .inputs_empirical import SPECS as EMPIRICAL_SPECS
 
 __all__ = ["CompiledDesign", "SPECS"]
 
@@ -110,7 +111,6 @@ SPECS = {
     "heidrich_seidel": _Lobe("power", inputs.heidrich_seidel_inputs, _power(None)),
     "schlick": _Lobe("schlick", inputs.schlick_inputs, lambda s: (float(s["n"]),)),
     "blake": _Lobe("blake", inputs.blake_inputs, lambda s: blake_bounds(float(s["n"]))),
-    "wang": _Lobe("wang", inputs.wang_inputs, lambda s: (float(s["m"]), float(s["zeta"]))),
     "ward_anisotropic": _Lobe(
         "ward_anisotropic",
         inputs.ward_anisotropic_inputs,
@@ -130,6 +130,7 @@ SPECS = {
         inputs.beckmann_anisotropic_inputs,
         _anisotropic("alpha_u", "alpha_v"),
     ),
+    **EMPIRICAL_SPECS,
 }
 
 

@@ -242,23 +242,6 @@ def schlick(cos_h, one_minus_cos_h, n, a, b, out):
     return out
 
 
-@numba.njit(cache=True, fastmath=FLAGS - {"contract"}, error_model="numpy")
-def wang(log_cos_h, cos2_phi_h, m, zeta, a, b, out):
-    """Wang's ``(N.H)^(m zeta / (m - (m - zeta) cos^2 phi_h))`` (Malashenkova's survey,
-    see the model). Without fused multiply-adds: ``m - (m - zeta) cos^2`` cancels when
-    ``m >> zeta``, and only the numpy model's two roundings reproduce its value
-    (measured: 5e-11 apart with them)."""
-    if a <= 0.0:
-        out[:] = b
-        return out
-    log_a = math.log(a)
-    mz, dm = m * zeta, m - zeta
-    for i in range(out.shape[0]):
-        power = mz / (m - dm * cos2_phi_h[i])
-        out[i] = b + fast_exp(power * log_cos_h[i] + log_a)
-    return out
-
-
 @jit
 def blake(theta_h, theta2_h, lo, hi, a, b, out):
     """Blake's piecewise quadratic in ``g = theta_h`` (Blake, Disselkoen and Kuijk,

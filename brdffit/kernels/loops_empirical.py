@@ -1,0 +1,142 @@
+"""The compiled loops of the empirical lobes with a power or a logarithm of a
+parameter-dependent base: Lafortune, Ohara, Fournier, Gaussian and Wang.
+
+As in :mod:`brdffit.kernels.loops`, each loop writes ``out[i] = b + a * lobe_i``
+(``a = 1, b = 0``: the lobe column; ``a = ks, b = kd/pi``: the BRDF) in one pass, and
+the lobe's positive scale is added to its exponent (``ln a``), so that the flush of
+results under 3.3e-308 by :func:`~brdffit.kernels.elementary.fast_exp_short` never
+loses a value numpy keeps. Powers of a base that depends on a parameter are
+``exp(n ln base)`` with :func:`~brdffit.kernels.elementary.fast_log`, vectorised,
+and every loop asks for 512-bit vectors (:mod:`brdffit.kernels.wide`).
+
+Where the numpy formula cancels (Lafortune's base ``cxy (Lx Vx + Ly Vy) + Lz Vz``
+near the cone where it is 0, Fournier's tilted cosine ``(N.H) c - (H.T) t c``, Wang's
+``m - (m - zeta) cos^2 phi_h``), the loop must round as numpy does, product then
+sum, or its value moves far from numpy's where the result is small: those few
+operations are compiled without fused multiply-adds in helpers of their own (LLVM
+inlines them; its fast-math flags are per instruction), the rest of the loop with
+them. The formulas are the numpy models' (MODELS.md), whose docstrings cite the
+primary sources:
+
+- Lafortune's generalised cosine lobe (Lafortune, Foo, Torrance and Greenberg,
+  Non-linear approximation of reflectance functions, SIGGRAPH 1997);
+- Ohara's ellipsoid, Wang's blended exponent (as cited by Malashenkova and
+  Moiseikin, Matematicheskaya morfologiya 5(4), 2006) and Fournier's tilted Phong
+  lobes (Fournier, Normal distribution functions and multiple surfaces, Graphics
+  Interface '92 workshop on local illumination, 1992);
+- the Gaussian lobe in ``theta_h`` (reviewed by Romanyuk, 2007; MODELS.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from ._compile import FLAGS, jit
+from .elementary import fast_exp_short, fast_log, fast_log1p
+from .wide import prefer_wide_vectors
+
+#: The fast-math flags of the helpers that round as numpy does (no fused
+#: multiply-add): see the module docstring.
+_SEPARATE = FLAGS - {"contract"}
+
+
+@numba.njit(cache=True, fastmath=_SEPARATE, error_model="numpy")
+def _product_plus(x, scale, y):
+    """``x scale + y`` rounded twice, as numpy's ``x * scale`` then ``+ y``."""
+    return x * scale + y
+
+
+@numba.njit(cache=True, fastmath=_SEPARATE, error_model="numpy")
+def _wang_power(cos2, mz, m, dm):
+    """Wang's exponent ``m zeta / (m - (m - zeta) cos^2 phi_h)``, rounded as numpy does."""
+    return mz / (m - dm * cos2)
+
+
+@jit
+def gaussian(theta2_h, half_n, a, b, out):
+    """``exp(-n theta_h^2 / 2)``; ``half_n`` is ``n / 2``."""
+    prefer_wide_vectors()
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a)
+    for i in range(out.shape[0]):
+        out[i] = b + fast_exp_short(log_a - half_n * theta2_h[i])
+    return out
+
+
+@jit
+def lafortune(dot_xy, dot_z, cxy, n, a, b, out):
+    """``max(0, cxy (Lx Vx + Ly Vy) + Lz Vz)^n`` (``ln 0`` is
+    :data:`~brdffit.kernels.elementary.LOG_ZERO`, whose ``n``-th multiple gives 0)."""
+    prefer_wide_vectors()
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a)
+    for i in range(out.shape[0]):
+        base = _product_plus(dot_xy[i], cxy, dot_z[i])
+        out[i] = b + fast_exp_short(n * fast_log(base) + log_a)
+    return out
+
+
+@jit
+def ohara(tan2_t, tan2_b, inv_a2, inv_b2, n, a, b, out):
+    """``(1 + tan2_t/a^2 + tan2_b/b^2)^(-n/2)`` as ``exp(-n/2 log1p(...))``
+    (``tan2_t``, ``tan2_b``: ``(H.T / N.H)^2``, ``(H.B / N.H)^2``)."""
+    prefer_wide_vectors()
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a)
+    half_n = 0.5 * n
+    for i in range(out.shape[0]):
+        x = tan2_t[i] * inv_a2 + tan2_b[i] * inv_b2
+        out[i] = b + fast_exp_short(log_a - half_n * fast_log1p(x))
+    return out
+
+
+@jit
+def fournier(log_cos_h, cos_h, half_t, n, t, a, b, out):
+    """``(1/3) sum_{s = -1, 0, 1} max(0, N_s.H)^n`` with ``N_0.H = N.H`` and
+    ``N_(+-1).H = (N.H) c +- (H.T) t c``, ``c = 1/sqrt(1 + t^2)``. The three powers
+    ``exp(l_k)`` are summed as ``exp(hi + ln(a/3)) (1 + exp(mid - hi) + exp(lo - hi))``
+    (``hi >= mid >= lo`` the sorted ``l_k``): a term is flushed to 0 only where it is
+    below 3e-308 of the largest, never while the sum keeps it (numpy's subnormal
+    terms beside a sum of 1e-300)."""
+    prefer_wide_vectors()
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a / 3.0)
+    inv = 1.0 / math.sqrt(1.0 + t * t)
+    side_scale = t * inv
+    for i in range(out.shape[0]):
+        side = half_t[i] * side_scale
+        centre = n * log_cos_h[i]
+        plus = n * fast_log(_product_plus(cos_h[i], inv, side))
+        minus = n * fast_log(_product_plus(cos_h[i], inv, -side))
+        top, low = max(centre, plus), min(centre, plus)
+        hi, mid, lo = max(top, minus), max(low, min(top, minus)), min(low, minus)
+        tail = 1.0 + (fast_exp_short(mid - hi) + fast_exp_short(lo - hi))
+        out[i] = b + fast_exp_short(hi + log_a) * tail
+    return out
+
+
+@jit
+def wang(log_cos_h, cos2_phi_h, m, zeta, a, b, out):
+    """Wang's ``(N.H)^(m zeta / (m - (m - zeta) cos^2 phi_h))``: the exponent rounded
+    as numpy does (``m - (m - zeta) cos^2`` cancels when ``m >> zeta``), its ``exp``
+    with fused multiply-adds."""
+    prefer_wide_vectors()
+    if a <= 0.0:
+        out[:] = b
+        return out
+    log_a = math.log(a)
+    mz, dm = m * zeta, m - zeta
+    for i in range(out.shape[0]):
+        power = _wang_power(cos2_phi_h[i], mz, m, dm)
+        out[i] = b + fast_exp_short(power * log_cos_h[i] + log_a)
+    return out
