@@ -124,4 +124,8 @@ COMPILED_MODELS = (
     "schlick",
     "wang",
     "blake",
+    "gltf_pbr",
+    "gltf_pbr_anisotropic",
+    "mitsuba_roughconductor",
+    "mitsuba_roughconductor_anisotropic",
 )

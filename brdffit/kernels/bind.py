@@ -19,6 +19,7 @@ import numpy as np
 from ..models.base import INV_PI, Design
 from ..models.empirical import blake_bounds
 from . import inputs
+from .bind_renderers import SPECS as _RENDERER_SPECS
 
 __all__ = ["CompiledDesign", "SPECS"]
 
@@ -131,6 +132,7 @@ SPECS = {
         _anisotropic("alpha_u", "alpha_v"),
     ),
 }
+SPECS.update(_RENDERER_SPECS)
 
 
 class CompiledDesign:

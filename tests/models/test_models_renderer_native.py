@@ -1,6 +1,7 @@
 """Renderer-native models against scalar references written here from the glTF 2.0
 specification (appendix B, KHR_materials_anisotropy) and Mitsuba 3's roughconductor,
-and, where Mitsuba is installed, value by value against Mitsuba's own ``eval``."""
+and, where Mitsuba is installed, value by value against Mitsuba's own ``eval``; on
+both evaluation paths (the compiled kernels and the numpy formulas)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ import pytest
 from helpers import hemisphere_pairs, mitsuba_eval
 
 from brdffit import get_model
+
+pytestmark = pytest.mark.usefixtures("evaluation_path")
 
 
 # ------------------------------------------------ references (math module only)

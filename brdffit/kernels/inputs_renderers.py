@@ -1,0 +1,90 @@
+"""Parameter-free inputs of the renderer-native kernels, computed once per geometry.
+
+As :mod:`brdffit.kernels.inputs`, for the loops of
+:mod:`brdffit.kernels.loops_renderers`: contiguous float64 arrays over the valid
+pairs, cached on the geometry, computed with the clamps of the numpy models
+(:mod:`brdffit.models.renderer_native`, :mod:`brdffit.models.mitsuba_plastic`,
+:mod:`brdffit.models.mitsuba_principled`), so that both agree to rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..data.geometry import Geometry
+from ..models.microfacet import inv_4_cos
+from .inputs import _anisotropic_axes, microfacet_inputs
+
+__all__ = [
+    "conductor_anisotropic_inputs",
+    "conductor_inputs",
+    "gltf_anisotropic_inputs",
+    "gltf_inputs",
+    "plastic_inputs",
+    "principled_anisotropic_inputs",
+    "principled_inputs",
+]
+
+
+def gltf_inputs(g: Geometry) -> tuple:
+    """glTF: those of GGX (:func:`~brdffit.kernels.inputs.microfacet_inputs`):
+    ``tan^2`` of H, L and V, ``1 / (4 (N.L)(N.V) (N.H)^4)`` and ``(1 - V.H)^5``."""
+    return microfacet_inputs(g)
+
+
+def _slopes_of(w: np.ndarray) -> tuple:
+    """``x / z`` and ``y / z`` of directions ``w``, ``z`` clamped at 1e-300 as the
+    glTF model's ``Lambda`` does (not at the cosines' 1e-10)."""
+    z = np.maximum(w[:, 2], 1e-300)
+    return w[:, 0] / z, w[:, 1] / z
+
+
+def gltf_anisotropic_inputs(g: Geometry) -> tuple:
+    """glTF with KHR_materials_anisotropy: H's three components (the rotated ``D``
+    takes them as the numpy model does), the slopes ``x/z``, ``y/z`` of L and of V
+    (rotated in the loop), ``1 / (4 (N.L)(N.V))`` and ``(1 - V.H)^5``."""
+
+    def compute():
+        h = g.half
+        parts = (h[:, 0], h[:, 1], h[:, 2], *_slopes_of(g.wi), *_slopes_of(g.wo))
+        contiguous = (np.ascontiguousarray(p) for p in parts)
+        return (*contiguous, inv_4_cos(g), microfacet_inputs(g)[4])
+
+    return g.cached("kernels.gltf_anisotropic", compute)
+
+
+def conductor_inputs(g: Geometry) -> tuple:
+    """Mitsuba's roughconductor: GGX's ``tan^2`` of H, L, V and its factor, and ``V.H``
+    (the exact conductor Fresnel is computed in the loop)."""
+    return (*microfacet_inputs(g)[:4], g.cos_d)
+
+
+def conductor_anisotropic_inputs(g: Geometry) -> tuple:
+    """Anisotropic roughconductor: the six ``tan^2`` axes of H, L and V, GGX's factor
+    and ``V.H``."""
+    return (*_anisotropic_axes(g), microfacet_inputs(g)[3], g.cos_d)
+
+
+def _z_of(g: Geometry) -> tuple:
+    """The unclamped ``z`` of L and of V, contiguous; cached."""
+    return g.cached(
+        "kernels.z_of",
+        lambda: (np.ascontiguousarray(g.wi[:, 2]), np.ascontiguousarray(g.wo[:, 2])),
+    )
+
+
+def plastic_inputs(g: Geometry) -> tuple:
+    """Mitsuba's roughplastic: GGX's four, ``V.H`` and the ``z`` of L and V (the
+    positions in the transmittance table, as the numpy model's ``lerp_gather``)."""
+    return (*microfacet_inputs(g)[:4], g.cos_d, *_z_of(g))
+
+
+def principled_inputs(g: Geometry) -> tuple:
+    """Mitsuba's principled: GGX's four, then ``V.H``, ``N.L`` and ``N.V`` (Schlick's
+    weights of all three are computed in the loop)."""
+    return (*microfacet_inputs(g)[:4], g.cos_d, g.cos_i, g.cos_o)
+
+
+def principled_anisotropic_inputs(g: Geometry) -> tuple:
+    """Anisotropic principled: the six ``tan^2`` axes, then as :func:`principled_inputs`."""
+    return (*_anisotropic_axes(g), *principled_inputs(g)[3:])
