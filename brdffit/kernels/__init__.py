@@ -128,4 +128,7 @@ COMPILED_MODELS = (
     "gltf_pbr_anisotropic",
     "mitsuba_roughconductor",
     "mitsuba_roughconductor_anisotropic",
+    "mitsuba_principled",
+    "mitsuba_principled_anisotropic",
+    "mitsuba_roughplastic",
 )

@@ -18,6 +18,8 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from ..models.base import Design
+from ..models.mitsuba_plastic import transmittance_table
+from ..models.mitsuba_principled import principled_alphas, principled_eta
 from . import inputs_renderers as inputs
 
 __all__ = ["SPECS"]
@@ -103,3 +105,48 @@ SPECS = {
         _conductor_shape("alpha_u", "alpha_v"),
     ),
 }
+
+
+def _principled_shape(anisotropic: bool) -> Callable:
+    """Mitsuba's widths (``principled_alphas``; the square of the isotropic one), then
+    metallic, roughness and the index of ``specular`` (``principled_eta``)."""
+
+    def shape(s: Mapping) -> tuple:
+        rough = float(s["roughness"])
+        au, av = principled_alphas(rough, float(s["anisotropic"]) if anisotropic else None)
+        widths = (au, av) if anisotropic else (au * au,)
+        return (*widths, float(s["metallic"]), rough, principled_eta(float(s["specular"])))
+
+    return shape
+
+
+SPECS["mitsuba_principled"] = _Coloured(
+    "principled", inputs.principled_inputs, _principled_shape(False)
+)
+SPECS["mitsuba_principled_anisotropic"] = _Coloured(
+    "principled_anisotropic", inputs.principled_anisotropic_inputs, _principled_shape(True)
+)
+
+
+class _Plastic:
+    """Mitsuba's roughplastic: columns ``(diffuse, specular)``; the transmittance table
+    of ``(alpha, eta)`` from the numpy model (cached there)."""
+
+    @staticmethod
+    def run(geometry, shape: Mapping, kd: float, ks: float, diffuse: np.ndarray):
+        alpha, eta = float(shape["alpha"]), float(shape["eta"])
+        table = transmittance_table(alpha, eta)
+        out = np.empty(geometry.m)
+        terms = inputs.plastic_inputs(geometry)
+        return _loop("plastic")(*terms, table, alpha * alpha, eta, kd, ks, diffuse, out)
+
+    def design(self, geometry, shape: Mapping) -> Design:
+        diffuse = np.empty(geometry.m)
+        return Design((diffuse, self.run(geometry, shape, 1.0, 1.0, diffuse)))
+
+    def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray:
+        kd, ks = (float(c) for c in coefs)
+        return self.run(geometry, shape, kd, ks, _NO_COLUMN)
+
+
+SPECS["mitsuba_roughplastic"] = _Plastic()

@@ -26,6 +26,7 @@ import math
 import numba
 
 from ._compile import FLAGS, jit
+from .loops import _twice_fresnel_dielectric
 
 _INV_PI = 1.0 / math.pi
 _F0 = 0.04  # glTF's dielectric reflectance at normal incidence (ior 1.5)
@@ -93,35 +94,45 @@ def gltf(tan2_h, tan2_i, tan2_o, factor, weight, alpha2, metallic, base, column,
     return out
 
 
+@_inline
+def _rotated_spec(sx_h, sy_h, sx_i, sy_i, sx_o, sy_o, factor, at, ab, inv_t, inv_b, c, s):
+    """``D V`` of :func:`gltf_anisotropic` at one pair, without its ``2 / (pi at ab)``."""
+    ht, hb = (sx_h * c + sy_h * s) * inv_t, (sy_h * c - sx_h * s) * inv_b
+    q = 1.0 + (ht * ht + hb * hb)
+    lt, lb = at * (sx_i * c + sy_i * s), ab * (sy_i * c - sx_i * s)
+    vt, vb = at * (sx_o * c + sy_o * s), ab * (sy_o * c - sx_o * s)
+    root = math.sqrt(1.0 + (lt * lt + lb * lb)) + math.sqrt(1.0 + (vt * vt + vb * vb))
+    return factor / (q * q * root)
+
+
 @jit
 def gltf_anisotropic(
-    hx, hy, hz, sx_i, sy_i, sx_o, sy_o, inv_4_cos, weight,
-    alpha_t, alpha_b, cos_r, sin_r, metallic, base, column, out,
+    sx_h, sy_h, sx_i, sy_i, sx_o, sy_o, factor, weight,
+    at, ab, c, s, metallic, base, column, out,
 ):  # fmt: skip
-    """glTF with KHR_materials_anisotropy: ``D = 1 / (pi alpha_t alpha_b q^2)``, ``q =
-    (H_t/alpha_t)^2 + (H_b/alpha_b)^2 + H_z^2`` with ``(t, b)`` the axes rotated by
-    ``r`` (``cos_r``, ``sin_r``), and ``V = 2 / ((s_L + s_V) 4 (N.L)(N.V))``, ``s =
-    sqrt(1 + (alpha_t^2 w_t^2 + alpha_b^2 w_b^2) / w_z^2)`` from the slopes ``w/w_z``."""
-    inv_t, inv_b = 1.0 / alpha_t, 1.0 / alpha_b
-    scale = 2.0 * _INV_PI / (alpha_t * alpha_b)
+    """glTF with KHR_materials_anisotropy: ``D = 1 / (pi a_t a_b H_z^4 q^2)``, ``q = 1 +
+    (h_t/a_t)^2 + (h_b/a_b)^2`` with ``h = H/H_z`` on the axes ``(t, b)`` rotated by
+    ``r`` (``c = cos r``, ``s = sin r``), and ``V = 2 / ((s_L + s_V) 4 (N.L)(N.V))``,
+    ``s_w = sqrt(1 + a_t^2 w_t^2 + a_b^2 w_b^2)`` from the slopes ``w / w_z``;
+    ``factor = 1 / (4 (N.L)(N.V) H_z^4)``."""
+    inv_t, inv_b = 1.0 / at, 1.0 / ab
+    scale = 2.0 * _INV_PI / (at * ab)
     diffuse_scale = (1.0 - metallic) * _INV_PI
-    design = column.shape[0] > 0
+    if column.shape[0] > 0:
+        for i in range(out.shape[0]):
+            spec = scale * _rotated_spec(
+                sx_h[i], sy_h[i], sx_i[i], sy_i[i], sx_o[i], sy_o[i], factor[i],
+                at, ab, inv_t, inv_b, c, s,
+            )  # fmt: skip
+            column[i], out[i] = _gltf_mix(spec, weight[i], metallic, diffuse_scale)
+        return out
     for i in range(out.shape[0]):
-        ht = (hx[i] * cos_r + hy[i] * sin_r) * inv_t
-        hb = (hy[i] * cos_r - hx[i] * sin_r) * inv_b
-        q = ht * ht + hb * hb + hz[i] * hz[i]
-        lt = alpha_t * (sx_i[i] * cos_r + sy_i[i] * sin_r)
-        lb = alpha_b * (sy_i[i] * cos_r - sx_i[i] * sin_r)
-        vt = alpha_t * (sx_o[i] * cos_r + sy_o[i] * sin_r)
-        vb = alpha_b * (sy_o[i] * cos_r - sx_o[i] * sin_r)
-        s = math.sqrt(1.0 + (lt * lt + lb * lb)) + math.sqrt(1.0 + (vt * vt + vb * vb))
-        spec = scale * inv_4_cos[i] / (q * q * s)
+        spec = scale * _rotated_spec(
+            sx_h[i], sy_h[i], sx_i[i], sy_i[i], sx_o[i], sy_o[i], factor[i],
+            at, ab, inv_t, inv_b, c, s,
+        )  # fmt: skip
         col, off = _gltf_mix(spec, weight[i], metallic, diffuse_scale)
-        if design:
-            column[i] = col
-            out[i] = off
-        else:
-            out[i] = off + base * col
+        out[i] = off + base * col
     return out
 
 
@@ -178,4 +189,94 @@ def conductor_anisotropic(
             out[i] = lobe
         else:
             out[i] = lobe * _fresnel_conductor(cos_d[i], e2_k2, four_e2k2)
+    return out
+
+
+@_inline
+def _principled_mix(dg, cd, ci, co, metallic, rough, e2):
+    """Mitsuba principled's ``(column, offset)`` from ``dg = D G / (4 (N.L)(N.V))``:
+    Burley's diffuse with retro-reflection ``R = 2 roughness (V.H)^2`` and the
+    dielectric Fresnel mixed with Schlick's on base_color by ``metallic``."""
+    w, w_i, w_o = _schlick(cd), _schlick(ci), _schlick(co)
+    retro = 2.0 * rough * cd * cd
+    diffuse = (1.0 - 0.5 * w_i) * (1.0 - 0.5 * w_o)
+    diffuse += retro * ((w_i + w_o) + (w_i * w_o) * (retro - 1.0))
+    column = (1.0 - metallic) * _INV_PI * diffuse + metallic * (1.0 - w) * dg
+    fresnel = (1.0 - metallic) * (0.5 * _twice_fresnel_dielectric(max(cd, 1e-300), e2))
+    return column, (fresnel + metallic * w) * dg
+
+
+@jit
+def principled(
+    tan2_h, tan2_i, tan2_o, factor, cos_d, cos_i, cos_o,
+    alpha2, metallic, rough, eta, base, column, out,
+):  # fmt: skip
+    """Mitsuba 3's principled reflection with isotropic GGX of width ``alpha``."""
+    inv_a2 = 1.0 / alpha2
+    scale = 4.0 * _INV_PI * inv_a2
+    e2 = eta * eta
+    for i in range(out.shape[0]):
+        dg = scale * _ggx_dg(tan2_h[i], tan2_i[i], tan2_o[i], factor[i], inv_a2, alpha2)
+        col, off = _principled_mix(dg, cos_d[i], cos_i[i], cos_o[i], metallic, rough, e2)
+        if column.shape[0] > 0:
+            column[i], out[i] = col, off
+        else:
+            out[i] = off + base * col
+    return out
+
+
+@jit
+def principled_anisotropic(
+    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, cos_d, cos_i, cos_o,
+    alpha_u, alpha_v, metallic, rough, eta, base, column, out,
+):  # fmt: skip
+    """:func:`principled` with anisotropic GGX (``alpha_u`` along T, ``alpha_v`` along B)."""
+    u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
+    inv_u2, inv_v2 = 1.0 / u2, 1.0 / v2
+    scale = 4.0 * _INV_PI / (alpha_u * alpha_v)
+    e2 = eta * eta
+    for i in range(out.shape[0]):
+        dg = scale * _ggx_dg_anisotropic(
+            tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], factor[i],
+            inv_u2, inv_v2, u2, v2,
+        )  # fmt: skip
+        col, off = _principled_mix(dg, cos_d[i], cos_i[i], cos_o[i], metallic, rough, e2)
+        if column.shape[0] > 0:
+            column[i], out[i] = col, off
+        else:
+            out[i] = off + base * col
+    return out
+
+
+@_inline
+def _lerp(table, z):
+    """Mitsuba's ``lerp_gather`` of ``table`` (values at ``i / (n - 1)``) at ``z`` in
+    [0, 1], as :func:`brdffit.models.mitsuba_plastic._lerp`."""
+    x = z * (table.shape[0] - 1)
+    index = min(int(x), table.shape[0] - 2)
+    w1 = x - index
+    return (1.0 - w1) * table[index] + w1 * table[index + 1]
+
+
+@jit
+def plastic(
+    tan2_h, tan2_i, tan2_o, factor, cos_d, z_i, z_o, table,
+    alpha2, eta, kd, ks, diffuse, out,
+):  # fmt: skip
+    """Mitsuba 3's roughplastic: ``diffuse = T(z_L) T(z_V) / (pi eta^2)`` (``T`` the
+    transmittance ``table``, interpolated linearly) and ``specular = F(V.H; eta) D
+    G1(L) G1(V) / (4 (N.L)(N.V))``, GGX. Into ``diffuse`` and ``out`` when ``diffuse``
+    has pairs, else ``kd diffuse + ks specular`` into ``out``."""
+    inv_a2 = 1.0 / alpha2
+    scale = 4.0 * _INV_PI * inv_a2
+    diffuse_scale = 1.0 / (math.pi * eta * eta)
+    e2 = eta * eta
+    for i in range(out.shape[0]):
+        d = _lerp(table, z_i[i]) * _lerp(table, z_o[i]) * diffuse_scale
+        fresnel = 0.5 * _twice_fresnel_dielectric(max(cos_d[i], 1e-300), e2)
+        s = scale * _ggx_dg(tan2_h[i], tan2_i[i], tan2_o[i], factor[i], inv_a2, alpha2)
+        if diffuse.shape[0] > 0:
+            diffuse[i], out[i] = d, s * fresnel
+        else:
+            out[i] = kd * d + ks * (s * fresnel)
     return out
