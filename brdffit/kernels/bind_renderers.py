@@ -38,17 +38,20 @@ class _Coloured:
     """``offset + base_color column``: the loop writes both, or the sum at a colour."""
 
     def __init__(self, loop: str, prepare: Callable, shape: Callable):
+        """``prepare(geometry, shape)``: the arrays; ``shape(shape)``: the numbers."""
         self.loop, self.prepare, self.shape = loop, prepare, shape
 
+    def run(self, geometry, shape: Mapping, base: float, column: np.ndarray) -> np.ndarray:
+        arrays, numbers = self.prepare(geometry, shape), self.shape(shape)
+        return _loop(self.loop)(*arrays, *numbers, base, column, np.empty(geometry.m))
+
     def design(self, geometry, shape: Mapping) -> Design:
-        column, offset = np.empty(geometry.m), np.empty(geometry.m)
-        _loop(self.loop)(*self.prepare(geometry), *self.shape(shape), 0.0, column, offset)
-        return Design((column,), offset)
+        column = np.empty(geometry.m)
+        return Design((column,), self.run(geometry, shape, 0.0, column))
 
     def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray:
         (base,) = (float(c) for c in coefs)
-        out = np.empty(geometry.m)
-        return _loop(self.loop)(*self.prepare(geometry), *self.shape(shape), base, _NO_COLUMN, out)
+        return self.run(geometry, shape, base, _NO_COLUMN)
 
 
 class _Scaled:
@@ -92,9 +95,9 @@ def _conductor_shape(*widths: str) -> Callable:
 
 #: Model name -> its compiled form.
 SPECS = {
-    "gltf_pbr": _Coloured("gltf", inputs.gltf_inputs, _gltf_shape),
+    "gltf_pbr": _Coloured("gltf", lambda g, s: inputs.gltf_inputs(g), _gltf_shape),
     "gltf_pbr_anisotropic": _Coloured(
-        "gltf_anisotropic", inputs.gltf_anisotropic_inputs, _gltf_anisotropic_shape
+        "gltf_anisotropic", lambda g, s: inputs.gltf_anisotropic_inputs(g), _gltf_anisotropic_shape
     ),
     "mitsuba_roughconductor": _Scaled(
         "conductor", inputs.conductor_inputs, _conductor_shape("alpha")
@@ -107,25 +110,43 @@ SPECS = {
 }
 
 
-def _principled_shape(anisotropic: bool) -> Callable:
+def dielectric_fresnel(geometry, eta: float) -> np.ndarray:
+    """``F(V.H; eta)`` on the geometry's pairs, kept for the last ``eta`` asked.
+
+    A fit usually holds the index (Mitsuba's principled ``specular``, roughplastic's
+    ``eta``): the loops then read ``F`` (8 bytes a pair) instead of computing a square
+    root and a division per pair (measured: principled 197 -> 262 M pairs/s); a new
+    index costs one pass of :func:`~brdffit.kernels.loops_renderers.dielectric`. One
+    slot, replaced as a whole (one assignment), so it never grows."""
+    slot = geometry.cached("kernels.dielectric_slot", dict)
+    last = slot.get("last")
+    if last is None or last[0] != eta:
+        last = (eta, _loop("dielectric")(geometry.cos_d, eta, np.empty(geometry.m)))
+        slot["last"] = last
+    return last[1]
+
+
+def _principled(anisotropic: bool) -> _Coloured:
     """Mitsuba's widths (``principled_alphas``; the square of the isotropic one), then
-    metallic, roughness and the index of ``specular`` (``principled_eta``)."""
+    metallic and roughness; ``F`` of the index of ``specular`` (``principled_eta``)
+    after the geometry's inputs."""
+
+    def prepare(g, s: Mapping) -> tuple:
+        terms = inputs.principled_anisotropic_inputs if anisotropic else inputs.principled_inputs
+        return (*terms(g), dielectric_fresnel(g, principled_eta(float(s["specular"]))))
 
     def shape(s: Mapping) -> tuple:
         rough = float(s["roughness"])
         au, av = principled_alphas(rough, float(s["anisotropic"]) if anisotropic else None)
         widths = (au, av) if anisotropic else (au * au,)
-        return (*widths, float(s["metallic"]), rough, principled_eta(float(s["specular"])))
+        return (*widths, float(s["metallic"]), rough)
 
-    return shape
+    loop = "principled_anisotropic" if anisotropic else "principled"
+    return _Coloured(loop, prepare, shape)
 
 
-SPECS["mitsuba_principled"] = _Coloured(
-    "principled", inputs.principled_inputs, _principled_shape(False)
-)
-SPECS["mitsuba_principled_anisotropic"] = _Coloured(
-    "principled_anisotropic", inputs.principled_anisotropic_inputs, _principled_shape(True)
-)
+SPECS["mitsuba_principled"] = _principled(False)
+SPECS["mitsuba_principled_anisotropic"] = _principled(True)
 
 
 class _Plastic:
@@ -133,20 +154,26 @@ class _Plastic:
     of ``(alpha, eta)`` from the numpy model (cached there)."""
 
     @staticmethod
-    def run(geometry, shape: Mapping, kd: float, ks: float, diffuse: np.ndarray):
+    def _diffuse(geometry, shape: Mapping) -> np.ndarray:
         alpha, eta = float(shape["alpha"]), float(shape["eta"])
-        table = transmittance_table(alpha, eta)
-        out = np.empty(geometry.m)
-        terms = inputs.plastic_inputs(geometry)
-        return _loop("plastic")(*terms, table, alpha * alpha, eta, kd, ks, diffuse, out)
+        table, out = transmittance_table(alpha, eta), np.empty(geometry.m)
+        return _loop("plastic_diffuse")(*inputs.plastic_z(geometry), table, eta, out)
+
+    @staticmethod
+    def _add_specular(geometry, shape: Mapping, kd: float, ks: float, out: np.ndarray):
+        fresnel = dielectric_fresnel(geometry, float(shape["eta"]))
+        alpha2 = float(shape["alpha"]) ** 2
+        return _loop("plastic")(*inputs.plastic_inputs(geometry), fresnel, alpha2, kd, ks, out)
 
     def design(self, geometry, shape: Mapping) -> Design:
-        diffuse = np.empty(geometry.m)
-        return Design((diffuse, self.run(geometry, shape, 1.0, 1.0, diffuse)))
+        specular = self._add_specular(geometry, shape, 0.0, 1.0, np.empty(geometry.m))
+        return Design((self._diffuse(geometry, shape), specular))
 
     def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray:
         kd, ks = (float(c) for c in coefs)
-        return self.run(geometry, shape, kd, ks, _NO_COLUMN)
+        if kd == 0.0:  # the diffuse column is not read: its table need not be built
+            return self._add_specular(geometry, shape, 0.0, ks, np.empty(geometry.m))
+        return self._add_specular(geometry, shape, kd, ks, self._diffuse(geometry, shape))
 
 
 SPECS["mitsuba_roughplastic"] = _Plastic()

@@ -21,6 +21,7 @@ __all__ = [
     "gltf_anisotropic_inputs",
     "gltf_inputs",
     "plastic_inputs",
+    "plastic_z",
     "principled_anisotropic_inputs",
     "principled_inputs",
 ]
@@ -68,18 +69,18 @@ def conductor_anisotropic_inputs(g: Geometry) -> tuple:
     return (*_anisotropic_axes(g), microfacet_inputs(g)[3], g.cos_d)
 
 
-def _z_of(g: Geometry) -> tuple:
-    """The unclamped ``z`` of L and of V, contiguous; cached."""
+def plastic_z(g: Geometry) -> tuple:
+    """Mitsuba's roughplastic diffuse: the unclamped ``z`` of L and of V, contiguous
+    (the positions in the transmittance table, as the numpy model's ``lerp_gather``)."""
     return g.cached(
-        "kernels.z_of",
+        "kernels.plastic_z",
         lambda: (np.ascontiguousarray(g.wi[:, 2]), np.ascontiguousarray(g.wo[:, 2])),
     )
 
 
 def plastic_inputs(g: Geometry) -> tuple:
-    """Mitsuba's roughplastic: GGX's four, ``V.H`` and the ``z`` of L and V (the
-    positions in the transmittance table, as the numpy model's ``lerp_gather``)."""
-    return (*microfacet_inputs(g)[:4], g.cos_d, *_z_of(g))
+    """Mitsuba's roughplastic specular: GGX's ``tan^2`` of H, L, V and its factor."""
+    return microfacet_inputs(g)[:4]
 
 
 def principled_inputs(g: Geometry) -> tuple:
