@@ -207,16 +207,26 @@ def _principled_mix(dg, cd, ci, co, fresnel, metallic, rough):
 
 @jit
 def principled(
-    tan2_h, tan2_i, tan2_o, factor, cos_d, cos_i, cos_o, fresnel,
+    cos_h, sin2_h, cos_i, cos_o, cos_d, fresnel,
     alpha2, metallic, rough, base, column, out,
 ):  # fmt: skip
     """Mitsuba 3's principled reflection with isotropic GGX of width ``alpha``;
-    ``fresnel`` the dielectric Fresnel factor of its index (:func:`dielectric`)."""
+    ``fresnel`` the dielectric Fresnel factor of its index (:func:`dielectric`).
+
+    From cosines, so that it reads six arrays, not eight (measured: +20 %):
+    ``G1(c) = 2 / (1 + sqrt(1 + alpha^2 tan^2)) = 2 c / (c + S(c))``, ``S(c) =
+    sqrt(c^2 (1 - alpha^2) + alpha^2)`` (a sum of positive terms: alpha <= 1), so
+    ``D G1(L) G1(V) / (4 (N.L)(N.V)) = 1 / (pi alpha^2 q^2 (c_L + S_L)(c_V + S_V))``
+    with ``q = (N.H)^2 + sin^2(theta_h) / alpha^2`` (``(N.H)^4 t^2`` of :func:`gltf`)."""
     inv_a2 = 1.0 / alpha2
-    scale = 4.0 * _INV_PI * inv_a2
+    scale = _INV_PI * inv_a2
+    b = 1.0 - alpha2
     for i in range(out.shape[0]):
-        dg = scale * _ggx_dg(tan2_h[i], tan2_i[i], tan2_o[i], factor[i], inv_a2, alpha2)
-        col, off = _principled_mix(dg, cos_d[i], cos_i[i], cos_o[i], fresnel[i], metallic, rough)
+        ci, co, ch = cos_i[i], cos_o[i], cos_h[i]
+        q = ch * ch + sin2_h[i] * inv_a2
+        g = (ci + math.sqrt(ci * ci * b + alpha2)) * (co + math.sqrt(co * co * b + alpha2))
+        dg = scale / (q * q * g)
+        col, off = _principled_mix(dg, cos_d[i], ci, co, fresnel[i], metallic, rough)
         if column.shape[0] > 0:
             column[i], out[i] = col, off
         else:
