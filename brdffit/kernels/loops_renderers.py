@@ -25,6 +25,7 @@ import math
 
 import numba
 
+from ..models.renderer_native import PERFECT_K_MIN
 from ._compile import FLAGS, jit
 from .loops import _twice_fresnel_dielectric
 
@@ -155,13 +156,12 @@ def _fresnel_conductor(c, e2_k2, four_e2k2):
 
 @jit
 def conductor(tan2_h, tan2_i, tan2_o, factor, cos_d, alpha2, eta, k, a, out):
-    """``a F(V.H; eta + i k) D G1(L) G1(V) / (4 (N.L)(N.V))``, GGX. ``eta = 0`` (with
-    ``k`` not 0) is Mitsuba's ``material = "none"``: the numpy ``F`` is exactly 1 there
-    (``a = 0`` in its form), so the loop skips it."""
+    """``a F(V.H; eta + i k) D G1(L) G1(V) / (4 (N.L)(N.V))``, GGX, ``F`` skipped where
+    it is exactly 1 (:func:`~brdffit.models.renderer_native.perfect_conductor`)."""
     inv_a2 = 1.0 / alpha2
     scale = 4.0 * a * _INV_PI * inv_a2
     e2_k2, four_e2k2 = eta * eta - k * k, 4.0 * (eta * eta) * (k * k)
-    if eta == 0.0 and k >= 1e-100:
+    if eta == 0.0 and k >= PERFECT_K_MIN:
         for i in range(out.shape[0]):
             out[i] = scale * _ggx_dg(tan2_h[i], tan2_i[i], tan2_o[i], factor[i], inv_a2, alpha2)
         return out
@@ -180,15 +180,19 @@ def conductor_anisotropic(
     inv_u2, inv_v2 = 1.0 / u2, 1.0 / v2
     scale = 4.0 * a * _INV_PI / (alpha_u * alpha_v)
     e2_k2, four_e2k2 = eta * eta - k * k, 4.0 * (eta * eta) * (k * k)
+    if eta == 0.0 and k >= PERFECT_K_MIN:  # F = 1: V.H is not read
+        for i in range(out.shape[0]):
+            out[i] = scale * _ggx_dg_anisotropic(
+                tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], factor[i],
+                inv_u2, inv_v2, u2, v2,
+            )  # fmt: skip
+        return out
     for i in range(out.shape[0]):
         lobe = scale * _ggx_dg_anisotropic(
             tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], factor[i],
             inv_u2, inv_v2, u2, v2,
         )  # fmt: skip
-        if eta == 0.0 and k >= 1e-100:  # loop-invariant: LLVM moves it out of the loop
-            out[i] = lobe
-        else:
-            out[i] = lobe * _fresnel_conductor(cos_d[i], e2_k2, four_e2k2)
+        out[i] = lobe * _fresnel_conductor(cos_d[i], e2_k2, four_e2k2)
     return out
 
 

@@ -74,7 +74,9 @@ def test_per_channel_colours_combine_the_compiled_columns(name):
     np.testing.assert_allclose(got, expected, rtol=TOLERANCE, atol=0)
 
 
-@pytest.mark.parametrize("eta, k", [(0.0, 1.0), (0.0, 1e-50), (0.0, 4.0), (0.0, 0.0), (0.2, 3.0)])
+@pytest.mark.parametrize(
+    "eta, k", [(0.0, 1.0), (0.0, 1e-50), (0.0, 4.0), (0.0, 1e-100), (0.0, 0.0), (0.2, 3.0)]
+)
 @pytest.mark.parametrize("name", ["mitsuba_roughconductor", "mitsuba_roughconductor_anisotropic"])
 def test_the_perfect_conductor_skips_only_a_fresnel_factor_of_exactly_one(name, eta, k):
     """``eta = 0`` with ``k > 0`` is Mitsuba's material "none", where the numpy conductor
@@ -112,3 +114,18 @@ def test_the_compiled_transmittance_table_is_the_numpy_models():
     for a in (alpha.lower, 0.004, 0.05, 0.3, alpha.upper):
         for e in (eta.lower, 1.5, eta.upper):
             np.testing.assert_allclose(compiled(a, e), reference(a, e), rtol=1e-13, atol=0)
+
+
+@pytest.mark.parametrize("k", [1e-70, 1e-30, 0.5, 1.0, 10.0])
+def test_the_conductor_fresnel_factor_is_exactly_one_where_the_models_skip_it(k):
+    """perfect_conductor(0, k): the numpy and the compiled models skip F; it is exactly
+    1 at every V.H in [0, 1], grazing and normal included. Not at k = 1e-100 (1/2 at
+    V.H = 1, where t0^2 underflows), which perfect_conductor refuses."""
+    from brdffit.models.renderer_native import perfect_conductor
+    from brdffit.models.shared import fresnel_conductor
+
+    c = np.concatenate([np.linspace(0.0, 1.0, 200_001), np.geomspace(1e-300, 1e-3, 500)])
+    assert perfect_conductor(0.0, k)
+    assert np.all(fresnel_conductor(c, 0.0, k) == 1.0)
+    assert not perfect_conductor(0.0, 1e-100) and not perfect_conductor(1e-9, 1.0)
+    assert fresnel_conductor(np.array([1.0]), 0.0, 1e-100)[0] == 0.5
