@@ -128,4 +128,11 @@ COMPILED_MODELS = (
     "lafortune",
     "ohara",
     "fournier",
+    "gltf_pbr",
+    "gltf_pbr_anisotropic",
+    "mitsuba_roughconductor",
+    "mitsuba_roughconductor_anisotropic",
+    "mitsuba_principled",
+    "mitsuba_principled_anisotropic",
+    "mitsuba_roughplastic",
 )

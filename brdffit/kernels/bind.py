@@ -20,6 +20,7 @@ from ..models.base import INV_PI, Design
 from ..models.empirical import blake_bounds
 from . import inputs
 from .inputs_empirical import SPECS as EMPIRICAL_SPECS
+from .bind_renderers import SPECS as _RENDERER_SPECS
 
 __all__ = ["CompiledDesign", "SPECS"]
 
@@ -132,6 +133,7 @@ SPECS = {
     ),
     **EMPIRICAL_SPECS,
 }
+SPECS.update(_RENDERER_SPECS)
 
 
 class CompiledDesign:

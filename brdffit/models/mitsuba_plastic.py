@@ -61,14 +61,29 @@ def _rule(res: int) -> tuple:
     return r * np.cos(phi), r * np.sin(phi), weight
 
 
+@lru_cache(maxsize=4)
+def _half_rule(res: int) -> tuple:
+    """The nodes of :func:`_rule` with ``px > 0``, their weights doubled: the rule is
+    symmetric under ``px -> -px`` (``a -> -a`` in the concentric map; ``res`` even
+    leaves no node at ``px = 0``), and so are both integrands, in which ``px`` flips
+    the sign of ``m_y`` and of the outgoing ``y`` only. Half the work: the table took
+    5.6 ms, rebuilt at every new ``alpha`` of a fit (measured)."""
+    px, py, weight = _rule(res)
+    keep = px > 0.0
+    if 2 * np.count_nonzero(keep) != px.size:
+        raise ValueError(f"res={res}: the rule is not symmetric in px (res must be even)")
+    return px[keep], py[keep], 2.0 * weight[keep]
+
+
 def _cosines() -> np.ndarray:
     return np.maximum(1e-6, np.linspace(0.0, 1.0, TABLE_SIZE))
 
 
 def _visible_normals(mu: np.ndarray, alpha: float, res: int):
     """Mitsuba's GGX visible normals of ``wi = (sqrt(1 - mu^2), 0, mu)`` at the
-    rule's nodes: arrays (len(mu), K) of m_x, m_y, m_z, and the weights."""
-    px, py, weight = _rule(res)
+    rule's nodes (half of them, :func:`_half_rule`): arrays (len(mu), K) of m_x, m_y,
+    m_z, and the weights."""
+    px, py, weight = _half_rule(res)
     sx = alpha * np.sqrt(1.0 - mu * mu)
     norm = np.sqrt(sx * sx + mu * mu)
     ct = (mu / norm)[:, None]

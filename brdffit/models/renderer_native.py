@@ -47,7 +47,7 @@ from .params import roughness
 from .renderers import _tan2, anisotropic_lobe, isotropic_lobe
 from .shared import fresnel_conductor, ggx_d
 
-__all__ = ["MODELS", "GLTF_F0", "gltf_specular", "conductor_fresnel"]
+__all__ = ["MODELS", "GLTF_F0", "gltf_specular", "conductor_fresnel", "perfect_conductor"]
 
 ISOTROPIC = Classification("physical", "isotropic", "cosine", "material")
 ANISOTROPIC = Classification("physical", "anisotropic", "cosine", "material")
@@ -209,16 +209,35 @@ def _conductor_params(*alphas: Param) -> tuple:
     )  # fmt: skip
 
 
+#: The smallest ``k`` at which ``eta = 0`` makes the conductor Fresnel exactly 1.
+PERFECT_K_MIN = 1e-70
+
+
+def perfect_conductor(eta, k) -> bool:
+    """Whether :func:`conductor_fresnel` is exactly 1 at every ``V.H`` in [0, 1]: at
+    ``eta = 0`` (Mitsuba's ``material = "none"`` is ``eta = 0, k = 1``) its ``t0 = -k^2
+    - s^2 <= 0`` and ``sqrt(t0^2) = |t0|`` give ``a = 0``, so ``Rs = t1/t1`` and ``Rp =
+    Rs t3/t3``; ``k >=`` :data:`PERFECT_K_MIN` keeps ``t0^2`` and ``t3`` normal numbers
+    (at ``k = 1e-100`` and ``V.H = 1`` the formula gives 1/2). The models then skip the
+    factor: it cost three quarters of the numpy evaluation (measured, 47 of 65 ms on
+    1 M pairs)."""
+    return bool(np.all(np.asarray(eta) == 0.0) and np.all(np.asarray(k) >= PERFECT_K_MIN))
+
+
+def _times_fresnel(geometry: Geometry, lobe: np.ndarray, shape) -> np.ndarray:
+    if not perfect_conductor(shape["eta"], shape["k"]):
+        lobe *= conductor_fresnel(geometry, shape["eta"], shape["k"])
+    return lobe
+
+
 def _conductor_iso_design(geometry: Geometry, shape) -> Design:
     lobe = isotropic_lobe(geometry, "ggx", shape["alpha"], 1.0)
-    lobe *= conductor_fresnel(geometry, shape["eta"], shape["k"])
-    return Design((lobe,))
+    return Design((_times_fresnel(geometry, lobe, shape),))
 
 
 def _conductor_aniso_design(geometry: Geometry, shape) -> Design:
     lobe = anisotropic_lobe(geometry, "ggx", shape["alpha_u"], shape["alpha_v"], 1.0)
-    lobe *= conductor_fresnel(geometry, shape["eta"], shape["k"])
-    return Design((lobe,))
+    return Design((_times_fresnel(geometry, lobe, shape),))
 
 
 _MITSUBA_DOC = (

@@ -1,6 +1,7 @@
 """Renderer-native models against scalar references written here from the glTF 2.0
 specification (appendix B, KHR_materials_anisotropy) and Mitsuba 3's roughconductor,
-and, where Mitsuba is installed, value by value against Mitsuba's own ``eval``."""
+and, where Mitsuba is installed, value by value against Mitsuba's own ``eval``; on
+both evaluation paths (the compiled kernels and the numpy formulas)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ import pytest
 from helpers import hemisphere_pairs, mitsuba_eval
 
 from brdffit import get_model
+
+pytestmark = pytest.mark.usefixtures("evaluation_path")
 
 
 # ------------------------------------------------ references (math module only)
@@ -185,6 +188,21 @@ def test_mitsuba_roughplastic_matches_mitsuba_eval(params):
     )
     ratio = only / (params["diffuse"] / math.pi)
     assert ratio.max() < 1.0 and ratio.max() / ratio.min() > 1.5
+
+
+@pytest.mark.parametrize("transmit", [True, False])
+def test_half_of_the_rule_gives_the_whole_rules_integrals(monkeypatch, transmit):
+    """The transmittance and reflectance integrals are even in the rule's px (its
+    nodes mirror in px): the half rule the model uses gives the full rule's values."""
+    from brdffit.models import mitsuba_plastic as mp
+
+    for alpha, eta in [(0.001, 1.05), (0.2, 1.5), (1.0, 3.0)]:
+        half = mp._interface_integral(alpha, eta, 32, transmit)
+        with monkeypatch.context() as patch:
+            patch.setattr(mp, "_half_rule", mp._rule)
+            whole = mp._interface_integral(alpha, eta, 32, transmit)
+        np.testing.assert_allclose(half, whole, rtol=1e-13, atol=1e-300)
+        assert np.all(half > 0.0)
 
 
 def test_mitsubas_default_ext_ior_is_air_not_vacuum():

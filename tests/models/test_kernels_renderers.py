@@ -1,0 +1,131 @@
+"""The compiled kernels of the renderer-native models (brdffit.kernels.bind_renderers)
+where they differ in kind from the others: the one-slot cache of the dielectric
+Fresnel factor, per-channel colours, and Mitsuba's perfect conductor. Their values
+over the whole parameter box are checked with every compiled model in
+test_kernels.py; their reference and Mitsuba tests run on both paths in
+test_models_renderer_native.py."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import NEEDS_KERNELS, hemisphere_pairs
+
+from brdffit import kernels
+from brdffit.data.geometry import Geometry
+from brdffit.models import get_model
+
+pytestmark = NEEDS_KERNELS
+
+#: fast_exp's flush (test_kernels.py): no exponential here, so values agree to rounding.
+TOLERANCE = 1e-12
+
+
+def _both(model, geometry, params) -> tuple:
+    with kernels.use(True):
+        compiled = model.evaluate_prepared(geometry, params)
+    with kernels.use(False):
+        reference = model.evaluate_prepared(geometry, params)
+    return compiled, reference
+
+
+def test_the_fresnel_slot_follows_the_index_and_holds_one():
+    """Principled at one ``specular``, another, the first again, then roughplastic on
+    the same geometry: every value is the numpy model's, and the geometry keeps one
+    Fresnel array, that of the last index asked."""
+    from brdffit.kernels.bind_renderers import dielectric_fresnel
+    from brdffit.models.mitsuba_principled import principled_eta
+
+    geometry = Geometry(*hemisphere_pairs(1500, seed=31))
+    principled = get_model("mitsuba_principled")
+    for specular in (0.5, 0.1, 0.5):
+        params = {**principled.defaults(), "specular": specular, "metallic": 0.3}
+        compiled, reference = _both(principled, geometry, params)
+        np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    plastic = get_model("mitsuba_roughplastic")
+    params = {**plastic.defaults(), "eta": 2.0}
+    compiled, reference = _both(plastic, geometry, params)
+    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    slot = geometry.cached("kernels.dielectric_slot", dict)
+    assert list(slot) == ["last"] and slot["last"][0] == 2.0
+    assert dielectric_fresnel(geometry, 2.0) is slot["last"][1]  # a hit: the same array
+    dielectric_fresnel(geometry, principled_eta(0.5))  # a miss replaces the slot
+    assert list(slot) == ["last"] and slot["last"][0] == principled_eta(0.5)
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["gltf_pbr", "gltf_pbr_anisotropic", "mitsuba_roughconductor", "mitsuba_principled",
+     "mitsuba_roughplastic"],
+)  # fmt: skip
+def test_per_channel_colours_combine_the_compiled_columns(name):
+    """A colour given per channel makes the compiled evaluation decline (None) and
+    the model combine the compiled design's columns: the numpy values."""
+    model = get_model(name)
+    wi, wo = hemisphere_pairs(400, seed=32)
+    params = {**model.defaults(), model.linear_params[0].name: np.array([0.1, 0.45, 0.8])}
+    with kernels.use(True):
+        got = model.evaluate(wi, wo, params)
+    with kernels.use(False):
+        expected = model.evaluate(wi, wo, params)
+    assert got.shape == (wi.shape[0], 3)
+    np.testing.assert_allclose(got, expected, rtol=TOLERANCE, atol=0)
+
+
+@pytest.mark.parametrize(
+    "eta, k", [(0.0, 1.0), (0.0, 1e-50), (0.0, 4.0), (0.0, 1e-100), (0.0, 0.0), (0.2, 3.0)]
+)
+@pytest.mark.parametrize("name", ["mitsuba_roughconductor", "mitsuba_roughconductor_anisotropic"])
+def test_the_perfect_conductor_skips_only_a_fresnel_factor_of_exactly_one(name, eta, k):
+    """``eta = 0`` with ``k > 0`` is Mitsuba's material "none", where the numpy conductor
+    Fresnel is exactly 1 and the loop skips it; ``eta = k = 0`` is not (numpy's form
+    gives F = 1/2 at V.H = 1, the pair L = V = N included here): both agree."""
+    model = get_model(name)
+    wi, wo = hemisphere_pairs(800, seed=33)
+    params = {**model.defaults(), "eta": eta, "k": k}
+    compiled, reference = _both(model, Geometry(wi, wo), params)
+    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    if (eta, k) == (0.0, 0.0):  # at L = V = N, half of the perfect conductor's value
+        at_normal = (wi[:, 2] == 1.0) & (wo[:, 2] == 1.0)
+        perfect, _ = _both(model, Geometry(wi, wo), {**params, "k": 1.0})
+        assert at_normal.sum() == 1
+        assert compiled[at_normal] == pytest.approx(0.5 * perfect[at_normal], rel=1e-15)
+
+
+def test_roughplastic_without_diffuse_skips_its_table_and_equals_numpy():
+    model = get_model("mitsuba_roughplastic")
+    geometry = Geometry(*hemisphere_pairs(600, seed=34))
+    params = {**model.defaults(), "diffuse": 0.0, "alpha": 0.37}
+    compiled, reference = _both(model, geometry, params)
+    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    assert np.all(compiled > 0.0) and math.isfinite(compiled.max())
+
+
+def test_the_compiled_transmittance_table_is_the_numpy_models():
+    """Over roughplastic's box of alpha and eta (bounds included), the compiled table
+    equals the numpy integral to rounding: 1024 terms summed in another order."""
+    from brdffit.kernels.plastic_table import transmittance_table as compiled
+    from brdffit.models.mitsuba_plastic import transmittance_table as reference
+
+    model = get_model("mitsuba_roughplastic")
+    alpha, eta = model.param("alpha"), model.param("eta")
+    for a in (alpha.lower, 0.004, 0.05, 0.3, alpha.upper):
+        for e in (eta.lower, 1.5, eta.upper):
+            np.testing.assert_allclose(compiled(a, e), reference(a, e), rtol=1e-13, atol=0)
+
+
+@pytest.mark.parametrize("k", [1e-70, 1e-30, 0.5, 1.0, 10.0])
+def test_the_conductor_fresnel_factor_is_exactly_one_where_the_models_skip_it(k):
+    """perfect_conductor(0, k): the numpy and the compiled models skip F; it is exactly
+    1 at every V.H in [0, 1], grazing and normal included. Not at k = 1e-100 (1/2 at
+    V.H = 1, where t0^2 underflows), which perfect_conductor refuses."""
+    from brdffit.models.renderer_native import perfect_conductor
+    from brdffit.models.shared import fresnel_conductor
+
+    c = np.concatenate([np.linspace(0.0, 1.0, 200_001), np.geomspace(1e-300, 1e-3, 500)])
+    assert perfect_conductor(0.0, k)
+    assert np.all(fresnel_conductor(c, 0.0, k) == 1.0)
+    assert not perfect_conductor(0.0, 1e-100) and not perfect_conductor(1e-9, 1.0)
+    assert fresnel_conductor(np.array([1.0]), 0.0, 1e-100)[0] == 0.5
