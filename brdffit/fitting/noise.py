@@ -139,10 +139,7 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     values = [profile(x)[0] for x in grid]
     i = int(np.argmin(values))
     lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, GRID - 1)]
-    from scipy.optimize import minimize_scalar  # here: scipy.optimize takes 0.2 s to import
-
-    found = minimize_scalar(lambda x: profile(x)[0], bounds=(lo, hi), method="bounded",
-                            options={"xatol": 1e-3})  # fmt: skip
+    found = _bounded_minimum(lambda x: profile(x)[0], lo, hi)
     best = min(
         [(found.fun, float(found.x)), (values[i], float(grid[i])), (profile(15.0)[0], 15.0)]
     )
@@ -225,3 +222,11 @@ def reweight(problem, found, code, options, t0: float):
         pred, used = _round_noise(problem, found)
         problem = problem.reweighted(used.sigma(pred))
     return problem, found, code, used
+
+
+def _bounded_minimum(function, lo: float, hi: float):
+    """Brent's bounded minimum of ``function`` on ``[lo, hi]`` to 1e-3 in x (scipy's
+    ``minimize_scalar``, imported here: scipy.optimize takes 0.2 s to import)."""
+    from scipy.optimize import minimize_scalar
+
+    return minimize_scalar(function, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3})

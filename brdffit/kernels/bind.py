@@ -19,8 +19,8 @@ import numpy as np
 from ..models.base import INV_PI, Design
 from ..models.empirical import blake_bounds
 from . import inputs
-from .inputs_empirical import SPECS as EMPIRICAL_SPECS
 from .bind_renderers import SPECS as _RENDERER_SPECS
+from .inputs_empirical import SPECS as EMPIRICAL_SPECS
 
 __all__ = ["CompiledDesign", "SPECS"]
 
