@@ -84,13 +84,13 @@ def test_refitting_the_smith_masking_gives_the_stored_coefficients():
 def test_the_compiled_beckmann_loop_computes_the_rational_smith_masking():
     """The loop's G1(L) G1(V) (D's factor and exponent zeroed, V at the normal) equals
     smith.g1's at a = cot/alpha, from a -> 0 to past A_MAX."""
-    from brdffit.kernels import loops, smith
+    from brdffit.kernels import loops_microfacet, smith
     from brdffit.kernels.inputs import COT_MAX
 
     alpha = 0.3
     cot = np.geomspace(1e-9, 1e3, 5001)
     zeros = np.zeros_like(cot)
-    got = loops.beckmann(
+    got = loops_microfacet.beckmann(
         zeros,
         cot,
         np.full_like(cot, COT_MAX),

@@ -17,6 +17,7 @@ import pytest
 from helpers import hemisphere_pairs, random_params
 
 from brdffit.data.geometry import MIN_COSINE, Geometry, directions_from_angles
+from brdffit.kernels import smith
 from brdffit.models import REGISTRY, microfacet, renderers
 
 # Every test here runs on the compiled kernels and on the numpy formulas.
@@ -160,12 +161,22 @@ SHAPES = {
 }
 
 
+#: The Beckmann models evaluate Smith's G1 as a rational function within
+#: smith.MAX_ERROR (2e-8) of the exact one (brdffit.kernels.smith says why), so
+#: G1(L) G1(V) is within twice that of the references' erf form.
+TOLERANCE = {
+    "beckmann": 2 * smith.MAX_ERROR + 1e-11,
+    "beckmann_anisotropic": 2 * smith.MAX_ERROR + 1e-11,
+}
+
+
 @pytest.mark.parametrize("name", sorted(MODELS))
 def test_model_matches_its_scalar_reference(name):
     """Relative tolerance 1e-11: the exponents reach a few hundred, and one ulp of
     an exponent of 300 is a relative 7e-14 in the value; other factors add a few
-    ulps."""
+    ulps. The Beckmann models: see TOLERANCE."""
     model = MODELS[name]
+    rtol = TOLERANCE.get(name, 1e-11)
     wi = np.array([direction(t, p) for t, p, _, _ in PAIRS])
     wo = np.array([direction(t, p) for _, _, t, p in PAIRS])
     geometry = Geometry(wi, wo)
@@ -174,7 +185,7 @@ def test_model_matches_its_scalar_reference(name):
             params = {"kd": kd, "ks": ks, **shape}
             got = model.evaluate_prepared(geometry, params)
             expected = [REFERENCES[name](tuple(L), tuple(V), params) for L, V in zip(wi, wo)]
-            np.testing.assert_allclose(got, expected, rtol=1e-11, atol=0)
+            np.testing.assert_allclose(got, expected, rtol=rtol, atol=0)
     # The specular part is really exercised: the two H = N pairs carry the peak.
     lobe = model.evaluate_prepared(geometry, {"kd": 0.0, "ks": 1.0, **SHAPES[name][0]})
     assert set(np.argsort(lobe)[-2:]) == {0, 1}, lobe
