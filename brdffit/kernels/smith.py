@@ -86,11 +86,21 @@ def g1_exact(a) -> np.ndarray:
 
 
 def g1(a, p=P, q=Q) -> np.ndarray:
-    """``G1`` as the loops compute it, ``a Q / (a Q + P)`` at ``min(a, A_MAX)``."""
+    """``G1`` as the loops compute it, ``a Q / (a Q + P)`` at ``min(a, A_MAX)``
+    (Horner's scheme in place: the numpy models' evaluation, without temporaries)."""
     a = np.minimum(np.asarray(a, dtype=float), A_MAX)
-    x = a * (2.0 / A_MAX) - 1.0
-    n = a * np.polyval(q, x)
-    return n / (n + np.polyval(p, x))
+    x = a * (2.0 / A_MAX)
+    x -= 1.0
+    n, d = np.full_like(x, q[0]), np.full_like(x, p[0])
+    for c in q[1:]:
+        n *= x
+        n += c
+    for c in p[1:]:
+        d *= x
+        d += c
+    n *= a
+    d += n
+    return np.divide(n, d, out=n)
 
 
 def smith_g1(tan2_v, alpha2) -> np.ndarray:
@@ -98,8 +108,10 @@ def smith_g1(tan2_v, alpha2) -> np.ndarray:
     :func:`g1` at ``a = 1 / sqrt(alpha^2 tan^2 theta_v)`` (``A_MAX`` at the normal),
     within :data:`MAX_ERROR` of the exact ``G1``. Broadcasts like numpy (``alpha2``
     may be :func:`~brdffit.models.shared.projected_alpha2`, or an array of walkers)."""
+    a = np.multiply(tan2_v, alpha2)
+    np.sqrt(a, out=a)
     with np.errstate(divide="ignore"):
-        a = 1.0 / np.sqrt(np.multiply(tan2_v, alpha2))
+        np.divide(1.0, a, out=a)
     return g1(a)
 
 
