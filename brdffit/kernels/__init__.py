@@ -2,7 +2,8 @@
 
 The numpy models (:mod:`brdffit.models`) evaluate a formula as a sequence of array
 operations, each with its temporary array. The loops of
-:mod:`brdffit.kernels.loops`, compiled by numba, compute the same formula pair by
+:mod:`brdffit.kernels.loops` (and :mod:`brdffit.kernels.loops_microfacet`), compiled
+by numba, compute the same formula pair by
 pair in one pass over a few cached parameter-free inputs, which is what a fit does
 thousands of times. :func:`install` binds them to the registered models in place
 of their design functions; the numpy design stays as the reference and as the

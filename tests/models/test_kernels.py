@@ -106,6 +106,56 @@ def test_the_compiled_beckmann_loop_computes_the_rational_smith_masking():
     np.testing.assert_allclose(got, expected, rtol=1e-14, atol=0)
 
 
+def test_rsqrt_is_accurate_to_rounding_over_its_range():
+    """loops_microfacet.rsqrt (a float32 estimate, two Newton steps in float64) within
+    4 ulps of 1/sqrt over [RSQRT_MIN, RSQRT_MAX], beyond float32's own range."""
+    import numba
+
+    from brdffit.kernels._compile import FLAGS
+    from brdffit.kernels.loops_microfacet import RSQRT_MAX, RSQRT_MIN, rsqrt
+
+    @numba.njit(fastmath=FLAGS, error_model="numpy")
+    def run(x, out):
+        for i in range(x.shape[0]):
+            out[i] = rsqrt(x[i])
+        return out
+
+    x = np.concatenate([np.geomspace(RSQRT_MIN, RSQRT_MAX, 500_001), [1.0, 2.0, 1e20]])
+    rel = np.abs(run(x, np.empty_like(x)) * np.sqrt(x) - 1.0)
+    assert rel.max() < 4 * np.finfo(float).eps, rel.max()
+
+
+def test_wide_compiles_eight_lanes_and_sets_the_vectoriser_back():
+    """On AVX-512, the first call of a ``wide`` loop compiles it with 512-bit vectors
+    (zmm registers), and a loop compiled after it gets LLVM's default width again;
+    without AVX-512, ``wide`` leaves the function as it is."""
+    import llvmlite.binding as llvm
+    import numba
+
+    from brdffit.kernels._compile import FLAGS
+    from brdffit.kernels.loops_microfacet import wide
+
+    def scale(x, out):
+        for i in range(x.shape[0]):
+            out[i] = 3.0 * x[i]
+        return out
+
+    def compiled():
+        return numba.njit(fastmath=FLAGS, error_model="numpy")(scale)
+
+    x = np.arange(64.0)
+    function = wide(compiled())
+    if not llvm.get_host_cpu_features().get("avx512f", False):
+        assert isinstance(function, numba.core.registry.CPUDispatcher)
+        return
+    np.testing.assert_array_equal(function(x, np.empty(64)), 3.0 * x)
+    dispatcher = function.__wrapped__
+    assert "zmm" in dispatcher.inspect_asm(dispatcher.signatures[0])
+    after = compiled()
+    after(x, np.empty(64))
+    assert "zmm" not in after.inspect_asm(after.signatures[0])
+
+
 def test_the_named_models_are_those_with_a_kernel():
     """COMPILED_MODELS is written out (brdffit.kernels imports its bind module only in
     install()); it names exactly the models that install() binds."""
