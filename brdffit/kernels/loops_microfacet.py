@@ -1,10 +1,9 @@
 """The compiled loops of the Beckmann models and of anisotropic GGX.
 
 As those of :mod:`brdffit.kernels.loops` (``out[i] = b + a * lobe_i``, positive
-factors of an exponential added to its exponent), with three changes that make
-these loops, whose arithmetic (not their memory traffic) is their limit, at least
-as fast as Mitsuba 3's LLVM backend on one thread (issue 13, measured in
-benchmarks/README.md):
+factors of an exponential added to its exponent), with four changes that bring
+these loops to the speed of Mitsuba 3's LLVM backend on one thread (issue 13,
+measured in benchmarks/README.md; anisotropic Beckmann still below it):
 
 - Beckmann's Smith ``G1`` is the degree-(6, 6) rational function of
   :mod:`brdffit.kernels.smith` (within 2e-8 of the exact one; the numpy models use
@@ -18,7 +17,11 @@ benchmarks/README.md):
   tests/models/test_kernels.py); the arguments are clamped to where float32 holds
   them;
 - on processors with AVX-512 the loops are compiled with eight doubles to a vector
-  (:func:`wide`): LLVM's default for them is four.
+  (:func:`wide`): LLVM's default for them is four;
+- the Beckmann and anisotropic GGX loops read the inputs that tolerate it in
+  float32 (:func:`brdffit.kernels.inputs.beckmann_inputs` and
+  :func:`~brdffit.kernels.inputs.ggx_anisotropic_inputs` state and bound the error:
+  2e-7 relative, tested), which cuts their memory traffic by a quarter to a third.
 
 The formulas, those of the numpy models (:mod:`brdffit.models.renderers`): GGX and
 Beckmann ``D`` with the separable Smith masking (Walter, Marschner, Li and
@@ -109,7 +112,8 @@ def beckmann(tan2_h, cot_i, cot_o, log_factor, weight, alpha2, f0, a, b, out):
     """Beckmann ``D`` with its Smith ``G1`` (:mod:`brdffit.kernels.smith`) and
     Schlick's F. ``cot_i``, ``cot_o`` are ``1/tan`` of L and V (so ``a = cot/alpha``
     needs no division), ``log_factor`` is ``ln(1 / (4 (N.L)(N.V) (N.H)^4))``, added
-    to the exponent of ``D``; one division per pair for both ``G1``."""
+    to the exponent of ``D``; one division per pair for both ``G1``. Any float
+    array type (the cached ``cot`` and ``weight`` are float32)."""
     if a <= 0.0:
         out[:] = b
         return out
@@ -162,7 +166,7 @@ def ggx_anisotropic(
     t^2)``, ``t = 1 + tan2_t/alpha_u^2 + tan2_b/alpha_v^2``, and Smith ``G1 = 2 / (1 +
     sqrt(m))``, ``m = 1 + alpha_u^2 tx + alpha_v^2 ty``, of L and of V; ``factor`` is
     ``1 / (4 (N.L)(N.V) (N.H)^4)``. ``sqrt(m) = m rsqrt(m)``: no division but the
-    last."""
+    last. The cached inputs but ``tan2_t``, ``tan2_b`` are float32."""
     inv_u2, inv_v2 = 1.0 / (alpha_u * alpha_u), 1.0 / (alpha_v * alpha_v)
     u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
     scale = 4.0 * a * _INV_PI / (alpha_u * alpha_v)
