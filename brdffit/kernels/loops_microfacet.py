@@ -53,26 +53,29 @@ _LOCK = threading.Lock()
 
 
 def wide(dispatcher):
-    """``dispatcher`` (a numba function) compiled, on its first call, with LLVM's
-    loop vectoriser set to eight lanes when the processor has AVX-512 (measured on
-    the Beckmann loop: 1.15-1.2x), then the option set back to LLVM's default (0,
-    the vectoriser's own choice) so that no other compilation in the process sees
-    it. A later compilation for other argument types (not made by brdffit) gets
-    LLVM's default width: the same results, at four lanes."""
+    """``dispatcher`` (a numba function) compiled with LLVM's loop vectoriser set to
+    eight lanes when the processor has AVX-512 (measured on the Beckmann loop:
+    1.15-1.2x), on the first call with each kind of arguments (a numba compilation,
+    or a load from its cache), then the option set back to LLVM's default (0, the
+    vectoriser's own choice) so that no other compilation in the process sees it."""
     if not llvm.get_host_cpu_features().get("avx512f", False):
         return dispatcher
-    first = [True]
+    seen = set()
 
     def call(*args):
-        if first[0]:
-            with _LOCK:
-                llvm.set_option("", "-force-vector-width=8")
-                try:
-                    return dispatcher(*args)
-                finally:
-                    llvm.set_option("", "-force-vector-width=0")
-                    first[0] = False
-        return dispatcher(*args)
+        kind = tuple(
+            (a.dtype.char, a.ndim, a.flags.c_contiguous) if isinstance(a, np.ndarray) else type(a)
+            for a in args
+        )
+        if kind in seen:
+            return dispatcher(*args)
+        with _LOCK:
+            llvm.set_option("", "-force-vector-width=8")
+            try:
+                return dispatcher(*args)
+            finally:
+                llvm.set_option("", "-force-vector-width=0")
+                seen.add(kind)
 
     call.__name__, call.__qualname__ = dispatcher.__name__, dispatcher.__qualname__
     call.__doc__, call.__wrapped__ = dispatcher.__doc__, dispatcher

@@ -126,9 +126,10 @@ def test_rsqrt_is_accurate_to_rounding_over_its_range():
 
 
 def test_wide_compiles_eight_lanes_and_sets_the_vectoriser_back():
-    """On AVX-512, the first call of a ``wide`` loop compiles it with 512-bit vectors
-    (zmm registers), and a loop compiled after it gets LLVM's default width again;
-    without AVX-512, ``wide`` leaves the function as it is."""
+    """On AVX-512, the first call of a ``wide`` loop with each kind of arguments
+    compiles it with 512-bit vectors (zmm registers), and a loop compiled after it
+    gets LLVM's default width again; without AVX-512, ``wide`` leaves the function
+    as it is."""
     import llvmlite.binding as llvm
     import numba
 
@@ -149,8 +150,12 @@ def test_wide_compiles_eight_lanes_and_sets_the_vectoriser_back():
         assert isinstance(function, numba.core.registry.CPUDispatcher)
         return
     np.testing.assert_array_equal(function(x, np.empty(64)), 3.0 * x)
+    # a second kind of arguments (float32 input): its own compilation, also wide
+    np.testing.assert_array_equal(function(x.astype(np.float32), np.empty(64)), 3.0 * x)
     dispatcher = function.__wrapped__
-    assert "zmm" in dispatcher.inspect_asm(dispatcher.signatures[0])
+    assert len(dispatcher.signatures) == 2
+    for signature in dispatcher.signatures:
+        assert "zmm" in dispatcher.inspect_asm(signature)
     after = compiled()
     after(x, np.empty(64))
     assert "zmm" not in after.inspect_asm(after.signatures[0])
