@@ -242,9 +242,21 @@ def _isotropic_model(distribution: str) -> Model:
         classification=ISOTROPIC,
         reference=reference,
         design=design,
-        doc=f"Isotropic {distribution} microfacet model with exact Smith shadowing.\n"
-        f"{_COMMON_NOTE}\n{formula}.\n",
+        doc=f"Isotropic {distribution} microfacet model with {_SHADOWING[distribution]}.\n"
+        f"{_COMMON_NOTE}\n{formula}.\n{_FLOAT32_NOTE.get(distribution, '')}",
     )
+
+
+_SHADOWING = {
+    "ggx": "exact Smith shadowing",
+    "beckmann": "Smith shadowing (G1 within 2e-8 relative of the exact one)",
+}
+_FLOAT32 = (
+    "The compiled kernel (numba, 10,000 pairs or more) reads some parameter-free "
+    "inputs in float32: within 2e-7 relative of the float64 form "
+    "(brdffit.kernels.inputs).\n"
+)
+_FLOAT32_NOTE = {"beckmann": _FLOAT32, "ggx_anisotropic": _FLOAT32}
 
 
 def _anisotropic_model(distribution: str) -> Model:
@@ -268,8 +280,9 @@ def _anisotropic_model(distribution: str) -> Model:
         reference=reference + "; E. Heitz, Understanding the masking-shadowing function "
         "in microfacet-based BRDFs, JCGT 3(2), 2014",
         design=design,
-        doc=f"Anisotropic {distribution} microfacet model with exact Smith shadowing.\n"
-        f"{_COMMON_NOTE}\nIsotropic form: {formula}.\n{_ANISOTROPIC_NOTE}",
+        doc=f"Anisotropic {distribution} microfacet model with {_SHADOWING[distribution]}.\n"
+        f"{_COMMON_NOTE}\nIsotropic form: {formula}.\n{_ANISOTROPIC_NOTE}"
+        f"{_FLOAT32_NOTE.get(distribution + '_anisotropic', '')}",
     )
 
 
