@@ -30,7 +30,7 @@ coefficients.
 The degree is a trade of speed against exactness (issue 13; one core, the compiled
 Beckmann loop): (11, 11) on ``[0, 5]`` is within 4.2e-13 of the exact ``G1`` but
 leaves the loop at 0.6-0.7x of Mitsuba 3's LLVM Beckmann, (6, 6) on ``[0, 3.7]``
-is within 1.5e-8 and 1.4x faster (benchmarks/README.md). An error of 1.5e-8 is far
+is within 1.5e-8 and 1.3-1.4x faster (benchmarks/README.md). An error of 1.5e-8 is far
 below that of any measurement a fit sees, and below the issue's bound of 1e-6, so
 the Beckmann models use this function in their numpy form too
 (:mod:`brdffit.models.renderers`): the compiled and the numpy evaluations agree to
