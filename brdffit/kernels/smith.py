@@ -33,9 +33,10 @@ leaves the loop at 0.6-0.7x of Mitsuba 3's LLVM Beckmann, (6, 6) on ``[0, 3.7]``
 is within 1.5e-8 and 1.3-1.4x faster (benchmarks/README.md). An error of 1.5e-8 is far
 below that of any measurement a fit sees, and below the issue's bound of 1e-6, so
 the Beckmann models use this function in their numpy form too
-(:mod:`brdffit.models.renderers`): the compiled and the numpy evaluations agree to
-rounding, and both are within ``2 MAX_ERROR`` of the exact Smith ``G1(L) G1(V)``
-(their docstrings and the reference tests say so).
+(:mod:`brdffit.models.renderers`): both paths evaluate the same ``G1`` (the
+compiled loop's float32 inputs add at most 2e-7, :mod:`brdffit.kernels.inputs`),
+within ``2 MAX_ERROR`` of the exact Smith ``G1(L) G1(V)`` (the models' docs and
+reference tests say so).
 """
 
 from __future__ import annotations
