@@ -2,7 +2,8 @@
 
 The numpy models (:mod:`brdffit.models`) evaluate a formula as a sequence of array
 operations, each with its temporary array. The loops of
-:mod:`brdffit.kernels.loops`, compiled by numba, compute the same formula pair by
+:mod:`brdffit.kernels.loops` (and :mod:`brdffit.kernels.loops_microfacet`), compiled
+by numba, compute the same formula pair by
 pair in one pass over a few cached parameter-free inputs, which is what a fit does
 thousands of times. :func:`install` binds them to the registered models in place
 of their design functions; the numpy design stays as the reference and as the
@@ -62,7 +63,7 @@ def _loaded() -> bool:
     the installed numpy, say), warn once and run the numpy formulas from then on."""
     if "loaded" not in _state:
         try:
-            from . import loops, loops_empirical  # noqa: F401
+            from . import loops, loops_empirical, loops_microfacet  # noqa: F401
         except Exception as exc:  # ImportError, or numba's own errors on import
             warnings.warn(
                 f"brdffit's compiled kernels are off: importing them failed ({exc}); "

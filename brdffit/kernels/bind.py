@@ -31,16 +31,24 @@ def _loops():
     return loops
 
 
-class _Lobe:
-    """``kd/pi + ks lobe``: a loop of :mod:`~brdffit.kernels.loops`, its inputs and
-    the shape parameters it takes, transformed (``alpha -> alpha^2``)."""
+def _microfacet_loops():
+    from . import loops_microfacet
 
-    def __init__(self, loop: str, prepare: Callable, shape: Callable):
-        self.loop, self.prepare, self.shape = loop, prepare, shape
+    return loops_microfacet
+
+
+class _Lobe:
+    """``kd/pi + ks lobe``: a loop of :mod:`~brdffit.kernels.loops` (or of the module
+    ``loops`` returns), its inputs and the shape parameters it takes, transformed
+    (``alpha -> alpha^2``)."""
+
+    def __init__(self, loop: str, prepare: Callable, shape: Callable, loops: Callable = _loops):
+        self.loop, self.prepare, self.shape, self.loops = loop, prepare, shape, loops
 
     def run(self, geometry, shape: Mapping, a: float, b: float) -> np.ndarray:
         out = np.empty(geometry.m)
-        return getattr(_loops(), self.loop)(*self.prepare(geometry), *self.shape(shape), a, b, out)
+        loop = getattr(self.loops(), self.loop)
+        return loop(*self.prepare(geometry), *self.shape(shape), a, b, out)
 
     def design(self, geometry, shape: Mapping) -> Design:
         return Design((INV_PI, self.run(geometry, shape, 1.0, 0.0)))
@@ -96,7 +104,9 @@ def _anisotropic(u: str, v: str) -> Callable:
 #: Model name -> its compiled form.
 SPECS = {
     "ggx": _Lobe("ggx", inputs.microfacet_inputs, _alpha2("alpha", "f0")),
-    "beckmann": _Lobe("beckmann", inputs.beckmann_inputs, _alpha2("alpha", "f0")),
+    "beckmann": _Lobe(
+        "beckmann", inputs.beckmann_inputs, _alpha2("alpha", "f0"), _microfacet_loops
+    ),
     "ward": _Lobe("ward", inputs.ward_inputs, _alpha2("alpha")),
     "cook_torrance": _Lobe("cook_torrance", inputs.cook_torrance_inputs, _alpha2("m", "eta")),
     "cook_torrance_schlick": _Lobe(
@@ -124,12 +134,16 @@ SPECS = {
         lambda s: (float(s["nu"]), float(s["nv"])),
     ),
     "ggx_anisotropic": _Lobe(
-        "ggx_anisotropic", inputs.ggx_anisotropic_inputs, _anisotropic("alpha_u", "alpha_v")
+        "ggx_anisotropic",
+        inputs.ggx_anisotropic_inputs,
+        _anisotropic("alpha_u", "alpha_v"),
+        _microfacet_loops,
     ),
     "beckmann_anisotropic": _Lobe(
         "beckmann_anisotropic",
         inputs.beckmann_anisotropic_inputs,
         _anisotropic("alpha_u", "alpha_v"),
+        _microfacet_loops,
     ),
     **EMPIRICAL_SPECS,
 }

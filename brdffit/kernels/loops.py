@@ -11,9 +11,8 @@ at grazing angles) would otherwise lose a value that numpy keeps. The formulas a
 those of the numpy models (MODELS.md), whose docstrings cite the primary sources:
 
 - GGX ``D`` and Smith ``G1`` (Walter, Marschner, Li and Torrance, Microfacet
-  models for refraction through rough surfaces, EGSR 2007, eqs. 33-34), Beckmann
-  ``D`` and its Smith ``G1`` (ibid., and Heitz, JCGT 3(2), 2014, section 5.1; a
-  rational function within 1e-12 of the exact one, :mod:`brdffit.kernels.smith`);
+  models for refraction through rough surfaces, EGSR 2007, eqs. 33-34; the Beckmann
+  models and anisotropic GGX are in :mod:`brdffit.kernels.loops_microfacet`);
 - Ward's isotropic and anisotropic lobes (Ward, SIGGRAPH 1992, eq. 5a);
 - Cook-Torrance with V-cavity shadowing and the dielectric Fresnel term or Schlick's
   (Cook and Torrance, ACM TOG 1(1), 1982), Torrance-Sparrow's Gaussian in the angle
@@ -33,7 +32,6 @@ import numba
 import numpy as np
 
 from ._compile import FLAGS, fast_exp, jit
-from .smith import A_MAX, P, Q
 
 _INV_PI = 1.0 / math.pi
 
@@ -50,91 +48,6 @@ def ggx(tan2_h, tan2_i, tan2_o, factor, weight, alpha2, f0, a, b, out):
         )
         fresnel = f0 + (1.0 - f0) * weight[i]
         out[i] = b + scale * factor[i] * fresnel / (t * t * g)
-    return out
-
-
-@numba.njit(inline="always", fastmath=FLAGS)
-def _beckmann_g1_terms(a):
-    """``(a Q(x), a Q(x) + P(x))`` of :mod:`brdffit.kernels.smith`, whose ratio is
-    Beckmann's Smith ``G1`` at ``a = 1/(alpha tan theta) <= A_MAX``: no library call
-    and no table, so the loop vectorises."""
-    x = a * (2.0 / A_MAX) - 1.0
-    q = Q[0]
-    for k in range(1, len(Q)):  # Horner; the tuples are constants, the loops unrolled
-        q = q * x + Q[k]
-    p = P[0]
-    for k in range(1, len(P)):
-        p = p * x + P[k]
-    n = a * q
-    return n, n + p
-
-
-@jit
-def beckmann(tan2_h, cot_i, cot_o, log_factor, weight, alpha2, f0, a, b, out):
-    """Beckmann ``D`` with its Smith ``G1`` (:mod:`brdffit.kernels.smith`) and
-    Schlick's F. ``cot_i``, ``cot_o`` are ``1/tan`` of L and V (so ``a = cot/alpha``
-    needs no division), ``log_factor`` is ``ln(1 / (4 (N.L)(N.V) (N.H)^4))``, added
-    to the exponent of ``D``; one division per pair for both ``G1``."""
-    if a <= 0.0:
-        out[:] = b
-        return out
-    inv_a2 = 1.0 / alpha2
-    inv_alpha = math.sqrt(inv_a2)
-    log_scale = math.log(a * _INV_PI * inv_a2)
-    for i in range(out.shape[0]):
-        fresnel = f0 + (1.0 - f0) * weight[i]
-        n_i, d_i = _beckmann_g1_terms(min(cot_i[i] * inv_alpha, A_MAX))
-        n_o, d_o = _beckmann_g1_terms(min(cot_o[i] * inv_alpha, A_MAX))
-        lobe = fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_a2)
-        out[i] = b + fresnel * lobe * (n_i * n_o) / (d_i * d_o)
-    return out
-
-
-@jit
-def ggx_anisotropic(
-    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, weight, alpha_u, alpha_v, f0, a, b, out
-):
-    """Anisotropic GGX (Heitz 2014, section 5.4): ``D = 1 / (pi alpha_u alpha_v (N.H)^4
-    t^2)``, ``t = 1 + tan2_t/alpha_u^2 + tan2_b/alpha_v^2``, and Smith ``G1 = 2 / (1 +
-    sqrt(1 + alpha_u^2 tx + alpha_v^2 ty))`` of L and of V; ``factor`` as in :func:`ggx`."""
-    inv_u2, inv_v2 = 1.0 / (alpha_u * alpha_u), 1.0 / (alpha_v * alpha_v)
-    u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
-    scale = 4.0 * a * _INV_PI / (alpha_u * alpha_v)
-    for i in range(out.shape[0]):
-        t = 1.0 + tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2
-        g = (1.0 + math.sqrt(1.0 + u2 * tx_i[i] + v2 * ty_i[i])) * (
-            1.0 + math.sqrt(1.0 + u2 * tx_o[i] + v2 * ty_o[i])
-        )
-        fresnel = f0 + (1.0 - f0) * weight[i]
-        out[i] = b + scale * factor[i] * fresnel / (t * t * g)
-    return out
-
-
-@jit
-def beckmann_anisotropic(
-    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, log_factor, weight, alpha_u, alpha_v, f0, a, b, out
-):
-    """Anisotropic Beckmann (Heitz 2014, section 5.4): ``D = exp(-(tan2_t/alpha_u^2 +
-    tan2_b/alpha_v^2)) / (pi alpha_u alpha_v (N.H)^4)`` and the Smith ``G1`` of
-    :func:`beckmann` at ``a = 1 / sqrt(alpha_u^2 tx + alpha_v^2 ty)``; ``log_factor``
-    as in :func:`beckmann`. ``1/sqrt(s_L)`` and ``1/sqrt(s_V)`` share one division."""
-    if a <= 0.0:
-        out[:] = b
-        return out
-    inv_u2, inv_v2 = 1.0 / (alpha_u * alpha_u), 1.0 / (alpha_v * alpha_v)
-    u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
-    log_scale = math.log(a * _INV_PI / (alpha_u * alpha_v))
-    for i in range(out.shape[0]):
-        # s = (alpha tan)^2 = 1/a^2; at most 1e20 (grazing), at least 1e-100 (the
-        # normal's 0), so that their product neither overflows nor underflows
-        s_i = max(u2 * tx_i[i] + v2 * ty_i[i], 1e-100)
-        s_o = max(u2 * tx_o[i] + v2 * ty_o[i], 1e-100)
-        r = 1.0 / (s_i * s_o)
-        n_i, d_i = _beckmann_g1_terms(min(math.sqrt(s_o * r), A_MAX))
-        n_o, d_o = _beckmann_g1_terms(min(math.sqrt(s_i * r), A_MAX))
-        fresnel = f0 + (1.0 - f0) * weight[i]
-        exponent = log_scale + log_factor[i] - (tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2)
-        out[i] = b + fresnel * fast_exp(exponent) * (n_i * n_o) / (d_i * d_o)
     return out
 
 

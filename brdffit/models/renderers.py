@@ -1,7 +1,9 @@
 """The microfacet models of today's renderers: GGX and Beckmann with Smith shadowing.
 
 ``f = kd/pi + ks F(V.H) D(H) G1(L) G1(V) / (4 (N.L)(N.V))`` with the exact
-separable Smith shadowing-masking of each distribution and Schlick's Fresnel
+separable Smith shadowing-masking of each distribution (Beckmann's as a rational
+function within 2e-8 relative of the exact one, :mod:`brdffit.kernels.smith`) and
+Schlick's Fresnel
 ``F = f0 + (1 - f0)(1 - V.H)^5`` (MODELS.md, "Beyond the paper"). ``alpha_u``
 acts along the tangent T, ``alpha_v`` along the bitangent B. With ``f0 = 1`` and
 ``kd = 0`` the specular term is Mitsuba 3's ``roughconductor`` with a perfect
@@ -21,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..data.geometry import Geometry
+from ..kernels import smith
 from .base import INV_PI, Classification, Design, Model
 from .microfacet import inv_4_cos, schlick_fresnel
 from .params import diffuse_params, f0_param, roughness
@@ -30,7 +33,6 @@ from .shared import (
     ggx_d,
     ggx_d_anisotropic,
     projected_alpha2,
-    smith_g1_beckmann,
     smith_g1_ggx,
 )
 
@@ -41,7 +43,9 @@ ANISOTROPIC = Classification("physical", "anisotropic", "cosine", "material")
 
 _DISTRIBUTIONS = {
     "ggx": (ggx_d, ggx_d_anisotropic, smith_g1_ggx),
-    "beckmann": (beckmann_d, beckmann_d_anisotropic, smith_g1_beckmann),
+    # Beckmann's Smith G1 as a rational function within 2e-8 of the exact one, the
+    # same as the compiled loops' (brdffit.kernels.smith says why)
+    "beckmann": (beckmann_d, beckmann_d_anisotropic, smith.smith_g1),
 }
 
 
@@ -164,8 +168,9 @@ _GGX_REFERENCE = (
 _BECKMANN_FORMULA = (
     "``D = exp(-tan^2/alpha^2) / (pi alpha^2 cos^4)``, "
     "``G1(v) = 1 / (1 + Lambda(a))``, ``a = 1/(alpha tan theta_v)``, "
-    "``Lambda = (erf(a) - 1)/2 + exp(-a^2)/(2 a sqrt(pi))`` (exact Smith, not the "
-    "rational approximation Mitsuba uses)"
+    "``Lambda = (erf(a) - 1)/2 + exp(-a^2)/(2 a sqrt(pi))`` (Smith's exact masking, "
+    "evaluated as a rational function of ``a`` within 2e-8 of it, brdffit.kernels.smith; "
+    "not the 1e-3 approximation Mitsuba uses)"
 )
 _BECKMANN_REFERENCE = (
     "P. Beckmann and A. Spizzichino, The scattering of electromagnetic waves from "
@@ -237,9 +242,21 @@ def _isotropic_model(distribution: str) -> Model:
         classification=ISOTROPIC,
         reference=reference,
         design=design,
-        doc=f"Isotropic {distribution} microfacet model with exact Smith shadowing.\n"
-        f"{_COMMON_NOTE}\n{formula}.\n",
+        doc=f"Isotropic {distribution} microfacet model with {_SHADOWING[distribution]}.\n"
+        f"{_COMMON_NOTE}\n{formula}.\n{_FLOAT32_NOTE.get(distribution, '')}",
     )
+
+
+_SHADOWING = {
+    "ggx": "exact Smith shadowing",
+    "beckmann": "Smith shadowing (G1 within 2e-8 relative of the exact one)",
+}
+_FLOAT32 = (
+    "The compiled kernel (numba, 10,000 pairs or more) reads some parameter-free "
+    "inputs in float32: within 2e-7 relative of the float64 form "
+    "(brdffit.kernels.inputs).\n"
+)
+_FLOAT32_NOTE = {"beckmann": _FLOAT32, "ggx_anisotropic": _FLOAT32}
 
 
 def _anisotropic_model(distribution: str) -> Model:
@@ -263,8 +280,9 @@ def _anisotropic_model(distribution: str) -> Model:
         reference=reference + "; E. Heitz, Understanding the masking-shadowing function "
         "in microfacet-based BRDFs, JCGT 3(2), 2014",
         design=design,
-        doc=f"Anisotropic {distribution} microfacet model with exact Smith shadowing.\n"
-        f"{_COMMON_NOTE}\nIsotropic form: {formula}.\n{_ANISOTROPIC_NOTE}",
+        doc=f"Anisotropic {distribution} microfacet model with {_SHADOWING[distribution]}.\n"
+        f"{_COMMON_NOTE}\nIsotropic form: {formula}.\n{_ANISOTROPIC_NOTE}"
+        f"{_FLOAT32_NOTE.get(distribution + '_anisotropic', '')}",
     )
 
 
