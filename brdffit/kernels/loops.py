@@ -259,3 +259,22 @@ def moments(lobe, w, wy_t):
             total += row[i] * lobe[i]
         t1[k] = total
     return s1, s2, t1
+
+
+@numba.njit(cache=True, fastmath=True, error_model="numpy")
+def moments_by_channel(lobe, w_t, wy_t):
+    """``S1``, ``S2`` and ``T1``, each (C,), of :mod:`brdffit.kernels.normal` with a
+    weight per sample and channel, ``w_t`` (C, M) (the ``mixed`` loss's ``1 / sigma^2``),
+    ``wy_t`` the weighted targets (C, M). One pass over the lobe per channel."""
+    c, m = wy_t.shape
+    s1, s2, t1 = np.zeros(c), np.zeros(c), np.zeros(c)
+    for k in range(c):
+        w, wy = w_t[k], wy_t[k]
+        a = b = d = 0.0
+        for i in range(m):
+            wl = w[i] * lobe[i]
+            a += wl
+            b += wl * lobe[i]
+            d += wy[i] * lobe[i]
+        s1[k], s2[k], t1[k] = a, b, d
+    return s1, s2, t1

@@ -25,10 +25,10 @@ import numpy as np
 __all__ = ["normal_equations"]
 
 
-def _moments_loop():
-    from .loops import moments
+def _loops():
+    from . import loops
 
-    return moments
+    return loops
 
 
 #: One entry, the problem being fitted: weak references to its weights (None when
@@ -37,44 +37,57 @@ _constant_cache: list = []
 
 
 def _constants(w, wy) -> tuple:
-    """``S0``, ``T0`` and the weighted targets transposed to (C, M), contiguous, for
-    the loop's per-channel sums; computed once per (weights, targets) (a fit solves
-    the same targets thousands of times). The cache refers to the arrays weakly, so
-    it does not keep a finished problem's arrays alive."""
+    """``S0``, ``T0``, the weighted targets transposed to (C, M) and, for weights per
+    channel (M, C), the weights transposed (else None), contiguous, for the loops'
+    per-channel sums; computed once per (weights, targets) (a fit solves the same
+    targets thousands of times). The cache refers to the arrays weakly, so it does not
+    keep a finished problem's arrays alive."""
     for ref_w, ref_wy, values in _constant_cache:
         if ref_wy() is wy and (w is None if ref_w is None else ref_w() is w):
             return values
-    s0 = float(wy.shape[0]) if w is None else float(np.sum(w))
-    values = (s0, wy.sum(axis=0), np.ascontiguousarray(wy.T, dtype=float))
+    if w is None:
+        s0, w_t = float(wy.shape[0]), None
+    elif w.ndim == 1:
+        s0, w_t = float(np.sum(w)), None
+    else:
+        s0, w_t = w.sum(axis=0), np.ascontiguousarray(w.T, dtype=float)
+    values = (s0, wy.sum(axis=0), np.ascontiguousarray(wy.T, dtype=float), w_t)
     _constant_cache[:] = [(None if w is None else weakref.ref(w), weakref.ref(wy), values)]
-    weakref.finalize(wy, _constant_cache.clear)  # the copy wy.T goes with the targets
+    weakref.finalize(wy, _constant_cache.clear)  # the copies go with the targets
     return values
 
 
 def normal_equations(columns: list, y: np.ndarray, w, weighted, normal_class):
     """``normal_class(gram (C, K, K), rhs (C, K), yy (C,))`` from ``columns`` (K items,
     each a float or an (M,) array, at most one array), targets ``y`` (M, C), weights
-    ``w`` (None or (M,)) and ``weighted = (W y, y^T W y)``; None when the columns are
-    not of that form (then the caller stacks them)."""
+    ``w`` (None, (M,) or (M, C): the ``mixed`` loss weighs every value by its own
+    sigma) and ``weighted = (W y, y^T W y)``; None when the columns are not of that
+    form (then the caller stacks them). With weights per channel every sum is per
+    channel: ``S0_c = sum_m w_mc``, ``S1_c``, ``S2_c`` likewise."""
     arrays = [col for col in columns if np.ndim(col)]
-    if len(arrays) != 1 or arrays[0].ndim != 1 or (w is not None and w.ndim != 1):
+    if len(arrays) != 1 or arrays[0].ndim != 1:
+        return None
+    if w is not None and not (w.ndim == 1 or w.shape == y.shape):
         return None
     wy, yy = weighted
-    s0, t0, wy_t = _constants(w, wy)
+    s0, t0, wy_t, w_t = _constants(w, wy)
     lobe = np.ascontiguousarray(arrays[0], dtype=float)
-    weights = np.empty(0) if w is None else np.ascontiguousarray(w, dtype=float)
-    s1, s2, t1 = _moments_loop()(lobe, weights, wy_t)
+    if w_t is None:
+        weights = np.empty(0) if w is None else np.ascontiguousarray(w, dtype=float)
+        s1, s2, t1 = _loops().moments(lobe, weights, wy_t)
+    else:
+        s1, s2, t1 = _loops().moments_by_channel(lobe, w_t, wy_t)
     s = (s0, s1, s2)
     k, c = len(columns), y.shape[1]
-    gram = np.empty((k, k))
+    gram = np.empty((c, k, k))
     rhs = np.empty((c, k))
     for j, cj in enumerate(columns):
         for i, ci in enumerate(columns):
             if np.ndim(cj) and np.ndim(ci):
-                gram[j, i] = s[2]
+                gram[:, j, i] = s[2]
             elif np.ndim(cj) or np.ndim(ci):
-                gram[j, i] = s[1] * float(ci if np.ndim(cj) else cj)
+                gram[:, j, i] = s[1] * float(ci if np.ndim(cj) else cj)
             else:
-                gram[j, i] = s[0] * float(cj) * float(ci)
+                gram[:, j, i] = s[0] * float(cj) * float(ci)
         rhs[:, j] = t1 if np.ndim(cj) else t0 * float(cj)
-    return normal_class(np.broadcast_to(gram, (c, k, k)), rhs, yy)
+    return normal_class(gram, rhs, yy)
