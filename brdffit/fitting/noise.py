@@ -49,6 +49,11 @@ TOLERANCE = 0.05
 FLOOR = 1e-3
 #: Points of the grid of the noise model's ratio b^2 f^2 / a^2 (see :func:`estimate`).
 GRID = 25
+#: Above this many values, (a, b) are estimated on every k-th value only (a systematic
+#: sample of at most this many): two numbers need no more, their relative standard
+#: error is then about sqrt(2 / 300,000) = 0.3 %, and each of the estimate's ~40
+#: passes over a MERL file's 3.3 M values took 60 ms (12 s of a 32 s default fit).
+MAX_VALUES = 300_000
 
 
 @dataclass(frozen=True)
@@ -102,7 +107,7 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     more than one local optimum), refined by a bounded Brent search around the
     best, and the two pure forms (``rho = 0``, only ``a``; ``rho -> inf``, only
     ``b`` above the floor) compared with it. ``a`` keeps its floor
-    (:data:`FLOOR`).
+    (:data:`FLOOR`). Above :data:`MAX_VALUES` values, on every k-th of them.
 
     Parameters
     ----------
@@ -118,6 +123,9 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     r2, g, u = r2[keep], g[keep], u[keep]
     if not r2.size:
         return NoiseModel(0.0, 0.0)
+    if r2.size > MAX_VALUES:
+        step = -(-r2.size // MAX_VALUES)
+        r2, g, u = r2[::step], g[::step], u[::step]
     u = u / u.sum()
     g_scale = max(_dot(u, g), 1e-300)
     gn = g / g_scale

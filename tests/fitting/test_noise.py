@@ -138,3 +138,19 @@ def test_noiseless_data_are_not_called_a_misfit(model, seed):
     truth = brdffit.get_model(model).defaults()
     for name, value in result.params.items():
         np.testing.assert_allclose(value, truth[name], rtol=1e-5, err_msg=name)
+
+
+def test_large_data_estimate_the_noise_on_a_systematic_sample(monkeypatch):
+    """Above MAX_VALUES values the estimate reads every k-th one: the same (a, b) as
+    from all of them, to their statistical precision."""
+    from brdffit.fitting import noise as noise_module
+
+    rng = np.random.default_rng(11)
+    f = rng.uniform(0.0, 3.0, (400_000, 3))
+    y = f + np.sqrt(0.02**2 + (0.05 * f) ** 2) * rng.standard_normal(f.shape)
+    sampled = estimate(y - f, f)
+    assert sampled.a == pytest.approx(0.02, rel=0.03)
+    assert sampled.b == pytest.approx(0.05, rel=0.03)
+    monkeypatch.setattr(noise_module, "MAX_VALUES", 10**9)
+    whole = estimate(y - f, f)
+    assert sampled.close_to(whole, 0.02) and not sampled.close_to(whole, 1e-12)
