@@ -55,6 +55,7 @@ from numba import types
 from numba.extending import intrinsic
 
 from ._compile import EXP_MIN, FLAGS
+from ._compile import _double_from_bits as _float
 
 __all__ = [
     "EXP_POLYNOMIAL",
@@ -181,17 +182,6 @@ def _bits(typingctx, x):
 
     def codegen(context, builder, sig, args):
         return builder.bitcast(args[0], ir.IntType(64))
-
-    return signature, codegen
-
-
-@intrinsic
-def _float(typingctx, bits):
-    """The float64 whose IEEE-754 bits are the int64 ``bits`` (a bit cast)."""
-    signature = types.float64(types.int64)
-
-    def codegen(context, builder, sig, args):
-        return builder.bitcast(args[0], ir.DoubleType())
 
     return signature, codegen
 
