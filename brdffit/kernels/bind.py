@@ -20,7 +20,7 @@ from ..models.base import INV_PI, Design
 from ..models.empirical import blake_bounds
 from . import inputs
 from .bind_renderers import SPECS as _RENDERER_SPECS
-from .inputs_empirical import SPECS as EMPIRICAL_SPECS
+from .inputs_empirical import LOBES as EMPIRICAL_LOBES
 
 __all__ = ["CompiledDesign", "SPECS"]
 
@@ -31,16 +31,24 @@ def _loops():
     return loops
 
 
-class _Lobe:
-    """``kd/pi + ks lobe``: a loop of :mod:`~brdffit.kernels.loops`, its inputs and
-    the shape parameters it takes, transformed (``alpha -> alpha^2``)."""
+def _empirical_loops():
+    from . import loops_empirical
 
-    def __init__(self, loop: str, prepare: Callable, shape: Callable):
-        self.loop, self.prepare, self.shape = loop, prepare, shape
+    return loops_empirical
+
+
+class _Lobe:
+    """``kd/pi + ks lobe``: a loop of :mod:`~brdffit.kernels.loops` (or of the module
+    ``loops()`` returns), its inputs and the shape parameters it takes, transformed
+    (``alpha -> alpha^2``)."""
+
+    def __init__(self, loop: str, prepare: Callable, shape: Callable, loops: Callable = _loops):
+        self.loop, self.prepare, self.shape, self.loops = loop, prepare, shape, loops
 
     def run(self, geometry, shape: Mapping, a: float, b: float) -> np.ndarray:
         out = np.empty(geometry.m)
-        return getattr(_loops(), self.loop)(*self.prepare(geometry), *self.shape(shape), a, b, out)
+        loop = getattr(self.loops(), self.loop)
+        return loop(*self.prepare(geometry), *self.shape(shape), a, b, out)
 
     def design(self, geometry, shape: Mapping) -> Design:
         return Design((INV_PI, self.run(geometry, shape, 1.0, 0.0)))
@@ -131,7 +139,7 @@ SPECS = {
         inputs.beckmann_anisotropic_inputs,
         _anisotropic("alpha_u", "alpha_v"),
     ),
-    **EMPIRICAL_SPECS,
+    **{name: _Lobe(*lobe, loops=_empirical_loops) for name, lobe in EMPIRICAL_LOBES.items()},
 }
 SPECS.update(_RENDERER_SPECS)
 
