@@ -95,12 +95,21 @@ def test_the_perfect_conductor_skips_only_a_fresnel_factor_of_exactly_one(name, 
 
 
 def test_roughplastic_without_diffuse_skips_its_table_and_equals_numpy():
+    from brdffit.kernels.plastic_table import transmittance_table
+
     model = get_model("mitsuba_roughplastic")
     geometry = Geometry(*hemisphere_pairs(600, seed=34))
     params = {**model.defaults(), "diffuse": 0.0, "alpha": 0.37}
+    asked = transmittance_table.cache_info()
     compiled, reference = _both(model, geometry, params)
+    calls = transmittance_table.cache_info()
+    assert (calls.hits, calls.misses) == (asked.hits, asked.misses)  # the table: not asked
     np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
     assert np.all(compiled > 0.0) and math.isfinite(compiled.max())
+    with kernels.use(True):
+        model.evaluate_prepared(geometry, {**params, "diffuse": 0.2})
+    after = transmittance_table.cache_info()
+    assert after.hits + after.misses > calls.hits + calls.misses  # with a diffuse term it is
 
 
 def test_the_compiled_transmittance_table_is_the_numpy_models():
