@@ -63,7 +63,13 @@ def _loaded() -> bool:
     the installed numpy, say), warn once and run the numpy formulas from then on."""
     if "loaded" not in _state:
         try:
-            from . import loops, loops_empirical, loops_microfacet  # noqa: F401
+            from . import (  # noqa: F401
+                loops,
+                loops_empirical,
+                loops_microfacet,
+                loops_renderers,
+                plastic_table,
+            )
         except Exception as exc:  # ImportError, or numba's own errors on import
             warnings.warn(
                 f"brdffit's compiled kernels are off: importing them failed ({exc}); "

@@ -20,7 +20,7 @@ from ..models.base import INV_PI, Design
 from ..models.empirical import blake_bounds
 from . import inputs
 from .bind_renderers import SPECS as _RENDERER_SPECS
-from .inputs_empirical import SPECS as EMPIRICAL_SPECS
+from .inputs_empirical import LOBES as EMPIRICAL_LOBES
 
 __all__ = ["CompiledDesign", "SPECS"]
 
@@ -35,6 +35,12 @@ def _microfacet_loops():
     from . import loops_microfacet
 
     return loops_microfacet
+
+
+def _empirical_loops():
+    from . import loops_empirical
+
+    return loops_empirical
 
 
 class _Lobe:
@@ -145,7 +151,7 @@ SPECS = {
         _anisotropic("alpha_u", "alpha_v"),
         _microfacet_loops,
     ),
-    **EMPIRICAL_SPECS,
+    **{name: _Lobe(*lobe, loops=_empirical_loops) for name, lobe in EMPIRICAL_LOBES.items()},
 }
 SPECS.update(_RENDERER_SPECS)
 

@@ -46,6 +46,7 @@ vectorise.
 from __future__ import annotations
 
 import math
+import sys
 from decimal import Decimal, localcontext
 
 import numba
@@ -54,7 +55,9 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from ._compile import EXP_MIN, FLAGS
+# ln 2 in two parts, its inverse and the largest argument: fast_exp's (see its module)
+from ._compile import _EXP_MAX, _LN2_HI, _LN2_LO, _LOG2E, EXP_MIN, FLAGS
+from ._compile import _double_from_bits as _float
 
 __all__ = [
     "EXP_POLYNOMIAL",
@@ -74,11 +77,7 @@ __all__ = [
 #: below the smallest argument of ``fast_exp``, which then returns 0.
 LOG_ZERO = -1e300
 
-_LN2_HI = 0.6931471803691238  # ln 2 to 32 bits: k * _LN2_HI is exact for |k| < 2^20
-_LN2_LO = 1.9082149292705877e-10
-_LOG2E = 1.4426950408889634
-_EXP_MAX = 709.0
-_SMALLEST_NORMAL = 2.2250738585072014e-308
+_SMALLEST_NORMAL = sys.float_info.min
 _TWO_54 = 2.0**54
 #: ``t = y / ln 2 + _ROUND`` is ``_ROUND + k`` exactly, ``k = round(y / ln 2)``
 #: (``|k| < 2^51``), and its low bits are ``k``: the bits of ``2^k`` are
@@ -86,7 +85,7 @@ _TWO_54 = 2.0**54
 _ROUND = 1.5 * 2.0**52
 #: The bits of sqrt(1/2) subtracted from those of x and 1023 added back in the
 #: exponent field: ``(bits + _SHIFT) >> 52`` is the biased k of ``x = 2^k m``.
-_SHIFT = 0x3FF0000000000000 - 0x3FE6A09E667F3BCD
+_SHIFT = 0x3FF0000000000000 - int(np.float64(math.sqrt(0.5)).view(np.int64))
 _K_BIAS = 2.0**52 + 1023.0  # the float of the bits 0x433 << 52 | kb is 2^52 + kb
 #: The largest ``z = s^2``: ``s = (sqrt 2 - 1)/(sqrt 2 + 1)``.
 Z_MAX = ((math.sqrt(2.0) - 1.0) / (math.sqrt(2.0) + 1.0)) ** 2
@@ -181,17 +180,6 @@ def _bits(typingctx, x):
 
     def codegen(context, builder, sig, args):
         return builder.bitcast(args[0], ir.IntType(64))
-
-    return signature, codegen
-
-
-@intrinsic
-def _float(typingctx, bits):
-    """The float64 whose IEEE-754 bits are the int64 ``bits`` (a bit cast)."""
-    signature = types.float64(types.int64)
-
-    def codegen(context, builder, sig, args):
-        return builder.bitcast(args[0], ir.DoubleType())
 
     return signature, codegen
 

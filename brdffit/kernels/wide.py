@@ -15,12 +15,19 @@ function attribute ``"prefer-vector-width"="512"`` (the attribute clang's
 ``-mprefer-vector-width=512`` sets): on CPUs without AVX-512 it changes nothing.
 
 The attribute is set through llvmlite's function attributes, which list only the
-attributes llvmlite knows; if a future llvmlite refuses it, the loop compiles as
+attributes llvmlite knows. An llvmlite that refused it when it is added, or only
+later, when numba prints the module (as llvmlite's own ``add`` checks names) or
+LLVM parses it, would make the loop's compilation raise, and with it the model's
+evaluation: so the attribute is first tried once on a function of its own
+(:func:`_accepted`), and where that fails no loop gets it and the loops compile as
 before, with the default width.
 """
 
 from __future__ import annotations
 
+import functools
+
+from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
@@ -29,17 +36,36 @@ __all__ = ["prefer_wide_vectors"]
 _ATTRIBUTE = '"prefer-vector-width"="512"'
 
 
+def _add(attributes) -> None:
+    # set.add: llvmlite's own add() accepts only the attributes it knows
+    set.add(attributes, _ATTRIBUTE)
+
+
+@functools.cache
+def _accepted() -> bool:
+    """Whether this llvmlite prints the attribute and LLVM parses it back: tried once
+    on an empty function of its own module (see the module docstring)."""
+    try:
+        import llvmlite.binding as llvm
+
+        module = ir.Module(name="prefer_wide_vectors_probe")
+        function = ir.Function(module, ir.FunctionType(ir.VoidType(), ()), name="probe")
+        _add(function.attributes)
+        ir.IRBuilder(function.append_basic_block()).ret_void()
+        parsed = llvm.parse_assembly(str(module))
+        parsed.verify()
+        return "prefer-vector-width" in str(parsed)
+    except Exception:  # refused somewhere: the loops keep the default width
+        return False
+
+
 @intrinsic
 def prefer_wide_vectors(typingctx):
     """Mark the calling compiled function for 512-bit vectors (see the module)."""
 
     def codegen(context, builder, signature, args):
-        attributes = builder.function.attributes
-        try:
-            # set.add: llvmlite's own add() accepts only the attributes it knows
-            set.add(attributes, _ATTRIBUTE)
-        except Exception:  # an llvmlite that stores them otherwise
-            pass
+        if _accepted():
+            _add(builder.function.attributes)
         return context.get_dummy_value()
 
     return types.none(), codegen

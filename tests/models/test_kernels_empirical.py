@@ -192,3 +192,39 @@ def test_a_loop_that_asks_for_wide_vectors_carries_the_attribute():
     assert wide(1.0) == 2.0 and plain(1.0) == 2.0
     assert '"prefer-vector-width"="512"' in "".join(wide.inspect_llvm().values())
     assert "prefer-vector-width" not in "".join(plain.inspect_llvm().values())
+
+
+def test_an_llvmlite_that_refuses_the_wide_attribute_leaves_the_loop_compiling(monkeypatch):
+    """An llvmlite whose printing of a module checks attribute names, as its ``add``
+    does, would raise in the compilation of every loop given the attribute (and so
+    in the model's evaluation): the attribute is tried first, and then not given.
+    Before that trial, this compilation raised ValueError."""
+    import numba
+    from llvmlite.ir.values import FunctionAttributes
+
+    from brdffit.kernels import wide
+
+    printed = FunctionAttributes._to_list
+
+    def strict(self, ret_type):
+        unknown = set(self) - set(self._known)
+        if unknown:
+            raise ValueError(f"unknown attributes {sorted(unknown)}")
+        return printed(self, ret_type)
+
+    monkeypatch.setattr(FunctionAttributes, "_to_list", strict)
+    wide._accepted.cache_clear()
+    try:
+
+        @numba.njit
+        def refused(x):
+            wide.prefer_wide_vectors()
+            return x + 1.0
+
+        assert refused(1.0) == 2.0
+        assert "prefer-vector-width" not in "".join(refused.inspect_llvm().values())
+        assert not wide._accepted()
+    finally:
+        monkeypatch.undo()
+        wide._accepted.cache_clear()
+    assert wide._accepted()  # this llvmlite: the attribute is given (test above)

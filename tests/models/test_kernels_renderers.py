@@ -95,12 +95,21 @@ def test_the_perfect_conductor_skips_only_a_fresnel_factor_of_exactly_one(name, 
 
 
 def test_roughplastic_without_diffuse_skips_its_table_and_equals_numpy():
+    from brdffit.kernels.plastic_table import transmittance_table
+
     model = get_model("mitsuba_roughplastic")
     geometry = Geometry(*hemisphere_pairs(600, seed=34))
     params = {**model.defaults(), "diffuse": 0.0, "alpha": 0.37}
+    asked = transmittance_table.cache_info()
     compiled, reference = _both(model, geometry, params)
+    calls = transmittance_table.cache_info()
+    assert (calls.hits, calls.misses) == (asked.hits, asked.misses)  # the table: not asked
     np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
     assert np.all(compiled > 0.0) and math.isfinite(compiled.max())
+    with kernels.use(True):
+        model.evaluate_prepared(geometry, {**params, "diffuse": 0.2})
+    after = transmittance_table.cache_info()
+    assert after.hits + after.misses > calls.hits + calls.misses  # with a diffuse term it is
 
 
 def test_the_compiled_transmittance_table_is_the_numpy_models():
@@ -129,3 +138,23 @@ def test_the_conductor_fresnel_factor_is_exactly_one_where_the_models_skip_it(k)
     assert np.all(fresnel_conductor(c, 0.0, k) == 1.0)
     assert not perfect_conductor(0.0, 1e-100) and not perfect_conductor(1e-9, 1.0)
     assert fresnel_conductor(np.array([1.0]), 0.0, 1e-100)[0] == 0.5
+
+
+def test_renderer_loops_that_fail_to_import_leave_the_numpy_formulas(monkeypatch):
+    """As for the other loops (test_kernels.py): loops_renderers failing to import
+    (numba's errors on import, say) warns once and the renderer-native models run
+    their numpy formulas. Before, kernels.wanted() did not try that module, so the
+    kernels stayed on and the first evaluation raised the ImportError."""
+    import sys
+
+    model = get_model("gltf_pbr")
+    wi, wo = hemisphere_pairs(300, seed=35)
+    with kernels.use(False):
+        expected = model.evaluate(wi, wo, model.defaults())
+    monkeypatch.delitem(kernels._state, "loaded", raising=False)
+    monkeypatch.delattr(kernels, "loops_renderers", raising=False)
+    monkeypatch.setitem(sys.modules, "brdffit.kernels.loops_renderers", None)  # import fails
+    with pytest.warns(RuntimeWarning, match="compiled kernels are off"):
+        assert not kernels.wanted(10**6)
+    with kernels.use(True):
+        np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
