@@ -120,12 +120,9 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     u = np.ones(r2.shape[0]) if weights is None else np.asarray(weights, dtype=float)
     u = np.broadcast_to(u[:, None], r2.shape)
     keep = (u > 0) & np.isfinite(r2) & np.isfinite(g)
-    r2, g, u = r2[keep], g[keep], u[keep]
+    r2, g, u = _thinned(r2[keep], g[keep], u[keep])
     if not r2.size:
         return NoiseModel(0.0, 0.0)
-    if r2.size > MAX_VALUES:
-        step = -(-r2.size // MAX_VALUES)
-        r2, g, u = r2[::step], g[::step], u[::step]
     u = u / u.sum()
     g_scale = max(_dot(u, g), 1e-300)
     gn = g / g_scale
@@ -156,6 +153,12 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
         return NoiseModel(math.sqrt(p_min), math.sqrt(c / g_scale))
     rho = 10.0 ** best[1]
     return NoiseModel(math.sqrt(max(c, p_min)), math.sqrt(c * rho / g_scale))
+
+
+def _thinned(*arrays):
+    """The arrays, or every k-th of their values when they hold over :data:`MAX_VALUES`."""
+    step = max(-(-arrays[0].size // MAX_VALUES), 1)
+    return arrays if step == 1 else tuple(a[::step] for a in arrays)
 
 
 def _round_noise(problem, found) -> tuple:

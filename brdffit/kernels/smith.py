@@ -45,7 +45,6 @@ import math
 
 import numpy as np
 from numpy.polynomial import chebyshev
-from scipy.special import erfc
 
 __all__ = ["A_MAX", "MAX_ERROR", "P", "Q", "a_lambda", "fit", "g1", "g1_exact", "smith_g1"]
 
@@ -74,7 +73,10 @@ Q = (
 
 
 def a_lambda(a) -> np.ndarray:
-    """``a Lambda(a) = (exp(-a^2)/sqrt(pi) - a erfc(a)) / 2`` from scipy's ``erfc``."""
+    """``a Lambda(a) = (exp(-a^2)/sqrt(pi) - a erfc(a)) / 2`` from scipy's ``erfc``
+    (the reference of the fit and its tests: scipy.special is imported here only)."""
+    from scipy.special import erfc
+
     a = np.asarray(a, dtype=float)
     with np.errstate(over="ignore"):  # a^2 overflows for a > 1e154: exp(-inf) = 0
         return 0.5 * (np.exp(-a * a) / math.sqrt(math.pi) - a * erfc(a))
