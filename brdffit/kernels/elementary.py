@@ -51,12 +51,10 @@ from decimal import Decimal, localcontext
 
 import numba
 import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.extending import intrinsic
 
 # ln 2 in two parts, its inverse and the largest argument: fast_exp's (see its module)
 from ._compile import _EXP_MAX, _LN2_HI, _LN2_LO, _LOG2E, EXP_MIN, FLAGS
+from ._compile import _bits_of_double as _bits
 from ._compile import _double_from_bits as _float
 
 __all__ = [
@@ -171,17 +169,6 @@ def fit_exp_polynomial(degree: int = 11, points: int = 100) -> tuple:
         grid = (Decimal(half * (2 * k / 2000 - 1)) for k in range(2001))
         error = max(relative_error(r) for r in grid)
     return tuple(float(x) for x in reversed(c)), float(error)
-
-
-@intrinsic
-def _bits(typingctx, x):
-    """The IEEE-754 bits of the float64 ``x`` as an int64 (a bit cast)."""
-    signature = types.int64(types.float64)
-
-    def codegen(context, builder, sig, args):
-        return builder.bitcast(args[0], ir.IntType(64))
-
-    return signature, codegen
 
 
 @numba.njit(inline="always", fastmath=FLAGS)
