@@ -187,20 +187,23 @@ def _fisher(problem, params: dict, deadline=None) -> dict:
 
 def _information(columns: list, sqrt_w: np.ndarray) -> np.ndarray:
     """``J^T W J`` of Jacobian columns: (M, C) arrays (shape parameters) and
-    ``(c, (M,))`` pairs (a coefficient of channel c, zero in the other channels)."""
+    ``(c, (M,))`` pairs (a coefficient of channel c, zero in the other channels).
+    Summed by einsum, not BLAS: OpenBLAS runs these tall products on every core, and
+    its threads then spin for a while, taking a core from the rest of the fit (a
+    whole-MERL blinn fit took 0.68 s wall instead of 0.46 s)."""
     dense = [col * sqrt_w for col in columns if not isinstance(col, tuple)]
     sparse = [(c, v * sqrt_w[:, c]) for c, v in (x for x in columns if isinstance(x, tuple))]
     n_dense, size = len(dense), len(columns)
     info = np.zeros((size, size))
     if dense:
         flat = np.stack([d.ravel() for d in dense], axis=1)
-        info[:n_dense, :n_dense] = flat.T @ flat
+        info[:n_dense, :n_dense] = np.einsum("mi,mj->ij", flat, flat)
     for j, (c, v) in enumerate(sparse, n_dense):
-        info[:n_dense, j] = info[j, :n_dense] = [d[:, c] @ v for d in dense]
+        info[:n_dense, j] = info[j, :n_dense] = [np.einsum("m,m->", d[:, c], v) for d in dense]
     for c in {c for c, _ in sparse}:
         idx = [j for j, (cc, _) in enumerate(sparse, n_dense) if cc == c]
         block = np.stack([sparse[j - n_dense][1] for j in idx], axis=1)
-        info[np.ix_(idx, idx)] = block.T @ block
+        info[np.ix_(idx, idx)] = np.einsum("mi,mj->ij", block, block)
     return info
 
 
