@@ -118,3 +118,26 @@ def test_a_linear_parameter_at_zero_is_reported_with_its_sd_not_a_relative_width
     out = _judge(["f0"], ["linear"], info[:1, :1], {"f0": 0.05})  # sd 10 times |f0|
     assert "0.05 +- 0.5" in out["f0"], out
     assert _judge(["f0"], ["linear"], info[:1, :1], {"f0": 0.6}) == {}  # width 0.83
+
+
+def test_the_information_is_j_transpose_w_j():
+    """_information from its compact columns equals J^T W J of the explicit Jacobian:
+    a shape column (M, C) fills every channel's residuals, a coefficient of channel c
+    only channel c's (its columns vectorised over channels since issue 13)."""
+    from brdffit.fitting.identifiability import _information
+
+    rng = np.random.default_rng(5)
+    m, c = 40, 3
+    sqrt_w = rng.uniform(0.5, 2.0, (m, c))
+    dense = [rng.standard_normal((m, c)) for _ in range(2)]
+    pairs = [(ch, rng.standard_normal(m)) for ch in (0, 0, 1, 2, 2)]
+    jacobian = np.zeros((m * c, len(dense) + len(pairs)))  # rows: sample-major, channel
+    for j, col in enumerate(dense):
+        jacobian[:, j] = (col * sqrt_w).ravel()
+    for j, (ch, v) in enumerate(pairs, len(dense)):
+        column = np.zeros((m, c))
+        column[:, ch] = v * sqrt_w[:, ch]
+        jacobian[:, j] = column.ravel()
+    np.testing.assert_allclose(
+        _information(dense + pairs, sqrt_w), jacobian.T @ jacobian, rtol=1e-12, atol=1e-12
+    )
