@@ -63,3 +63,24 @@ def test_all_the_samples_use_the_problem_s_own_geometry(problem):
     rows = identifiability._rows(problem)
     assert len(rows) == problem.geometry.m
     assert identifiability._geometry(problem, rows) is problem.geometry
+
+
+def test_the_rows_the_check_uses():
+    """All of a 31-band Cornell-sized set (1439 x 63 x 31 entries, under MAX_ENTRIES):
+    a 1 M cap made it a subset on a fresh geometry, slower and less exact; at most
+    MAX_ROWS of a MERL-sized set."""
+    from types import SimpleNamespace
+
+    from brdffit.fitting.identifiability import MAX_ROWS, _rows
+
+    def problem(m, shape, coefs, channels):
+        return SimpleNamespace(
+            geometry=SimpleNamespace(m=m),
+            free_shape=[None] * shape,
+            free_coefs=[None] * coefs,
+            n_channels=channels,
+        )
+
+    assert len(_rows(problem(1439, 1, 2, 31))) == 1439
+    many = _rows(problem(1_096_216, 1, 2, 3))
+    assert len(many) == MAX_ROWS and np.all(np.diff(many) > 0)
