@@ -120,7 +120,9 @@ def test_a_linear_parameter_at_zero_is_reported_with_its_sd_not_a_relative_width
     assert _judge(["f0"], ["linear"], info[:1, :1], {"f0": 0.6}) == {}  # width 0.83
 
 
-def test_the_information_is_j_transpose_w_j():
+@pytest.mark.parametrize("channels", [(0, 0, 1, 2, 2), (0, 1, 2, 0, 1, 2), (1, 2)])
+@pytest.mark.parametrize("n_dense", [0, 2])
+def test_the_information_is_j_transpose_w_j(channels, n_dense):
     """_information from its compact columns equals J^T W J of the explicit Jacobian:
     a shape column (M, C) fills every channel's residuals, a coefficient of channel c
     only channel c's (its columns vectorised over channels since issue 13)."""
@@ -129,8 +131,8 @@ def test_the_information_is_j_transpose_w_j():
     rng = np.random.default_rng(5)
     m, c = 40, 3
     sqrt_w = rng.uniform(0.5, 2.0, (m, c))
-    dense = [rng.standard_normal((m, c)) for _ in range(2)]
-    pairs = [(ch, rng.standard_normal(m)) for ch in (0, 0, 1, 2, 2)]
+    dense = [rng.standard_normal((m, c)) for _ in range(n_dense)]
+    pairs = [(ch, rng.standard_normal(m)) for ch in channels]
     jacobian = np.zeros((m * c, len(dense) + len(pairs)))  # rows: sample-major, channel
     for j, col in enumerate(dense):
         jacobian[:, j] = (col * sqrt_w).ravel()
