@@ -42,7 +42,7 @@ def throughput_table(wi, wo, repeats: int) -> None:
     cook = get_model("cook_torrance")
     base = bench_evaluate.median_seconds(
         lambda: cook.evaluate_prepared(geometry, cook.defaults()), repeats
-    )
+    )[0]
     print("| model | channels | M pair-channels/s | ns per pair-channel | x cook_torrance |")
     print("| --- | ---: | ---: | ---: | ---: |")
     print(
@@ -53,7 +53,7 @@ def throughput_table(wi, wo, repeats: int) -> None:
         params = {**HE.defaults(), "wavelength": wavelengths}
         seconds = bench_evaluate.median_seconds(
             lambda params=params: HE.evaluate_prepared(geometry, params), repeats
-        )
+        )[0]
         per = seconds / (wi.shape[0] * count)
         print(
             f"| he | {count} | {1e-6 / per:.2f} | {per * 1e9:.0f} | "
@@ -77,7 +77,7 @@ def series_table(wi, wo, repeats: int) -> None:
         for tol in TOLERANCES:
             seconds = bench_evaluate.median_seconds(
                 lambda g=g, a=a, tol=tol: dd_series(g, a, tol), repeats
-            )
+            )[0]
             value, terms = dd_series(g, a, tol, count_terms=True)
             error = np.max(np.abs(value - exact) / np.where(peak > 0, peak, 1.0))
             print(

@@ -136,6 +136,17 @@ def he_components(geometry: Geometry, shape, tolerance: float = SERIES_TOLERANCE
 
 
 def _he_design(geometry: Geometry, shape) -> Design:
+    """``a_ud / pi`` as the column, spike and lobe as the offset; by the compiled loop
+    (:mod:`brdffit.kernels.loops_he`) when the kernels are wanted for the geometry and
+    the shape parameters are numbers (a batch of them goes to the numpy terms)."""
+    from .. import kernels
+
+    scalar = all(np.ndim(v) == 0 for k, v in shape.items() if k != "wavelength")
+    if scalar and np.ndim(shape["wavelength"]) <= 1 and kernels.wanted(geometry.m):
+        from ..kernels.loops_he import he_offset
+
+        cone = _spike_spread(geometry, math.radians(shape["aperture"]))
+        return Design((INV_PI,), offset=he_offset(geometry, shape, cone, SERIES_TOLERANCE))
     specular, directional = he_components(geometry, shape)
     return Design((INV_PI,), offset=specular + directional)
 
