@@ -3,9 +3,11 @@
 Two tables, from the same random direction pairs over the upper hemisphere:
 
 1. Throughput of ``he`` (prepared geometry, as in a fit) at its default
-   parameters with 1, 3 and 31 wavelengths, next to ``cook_torrance`` at its
-   defaults, in M pair-channels per second (one BRDF value each).
-2. The series over m of the directional-diffuse term, alone: mean and largest
+   parameters with 1, 3 and 31 wavelengths, by its compiled loop
+   (brdffit.kernels.loops_he, when numba is installed) and by numpy, next to
+   ``cook_torrance`` at its defaults, in M pair-channels per second (one BRDF
+   value each).
+2. The series over m of the directional-diffuse term, alone (numpy): mean and largest
    number of terms per element and time, for surfaces from smooth to rough
    (sigma0 / lambda, hence g), at the default truncation bound (1e-6 of the
    lobe's peak) and at looser and tighter ones, with the largest error measured
@@ -26,6 +28,7 @@ import sys
 import bench_evaluate  # before numpy: it pins the thread pools to one core
 import numpy as np
 
+from brdffit import kernels
 from brdffit.data.geometry import Geometry
 from brdffit.models import get_model
 from brdffit.models.he_terms import SERIES_TOLERANCE, dd_series
@@ -43,23 +46,29 @@ def throughput_table(wi, wo, repeats: int) -> None:
     base = bench_evaluate.median_seconds(
         lambda: cook.evaluate_prepared(geometry, cook.defaults()), repeats
     )[0]
-    print("| model | channels | M pair-channels/s | ns per pair-channel | x cook_torrance |")
-    print("| --- | ---: | ---: | ---: | ---: |")
     print(
-        f"| cook_torrance | 1 | {wi.shape[0] / base / 1e6:.2f} | "
+        "| model | path | channels | M pair-channels/s | ns per pair-channel "
+        "| x cook_torrance |\n| --- | --- | ---: | ---: | ---: | ---: |"
+    )
+    print(
+        f"| cook_torrance | compiled | 1 | {wi.shape[0] / base / 1e6:.2f} | "
         f"{base / wi.shape[0] * 1e9:.0f} | 1 |"
     )
     for count, wavelengths in WAVELENGTHS.items():
         params = {**HE.defaults(), "wavelength": wavelengths}
-        seconds = bench_evaluate.median_seconds(
-            lambda params=params: HE.evaluate_prepared(geometry, params), repeats
-        )[0]
-        per = seconds / (wi.shape[0] * count)
-        print(
-            f"| he | {count} | {1e-6 / per:.2f} | {per * 1e9:.0f} | "
-            f"{per * wi.shape[0] / base:.0f} |",
-            flush=True,
-        )
+        for path, on in (("compiled", None), ("numpy", False)):
+            if on is None and not kernels.wanted(geometry.m):
+                continue
+            with kernels.use(on):
+                seconds = bench_evaluate.median_seconds(
+                    lambda params=params: HE.evaluate_prepared(geometry, params), repeats
+                )[0]
+            per = seconds / (wi.shape[0] * count)
+            print(
+                f"| he | {path} | {count} | {1e-6 / per:.2f} | {per * 1e9:.0f} | "
+                f"{per * wi.shape[0] / base:.0f} |",
+                flush=True,
+            )
 
 
 def series_table(wi, wo, repeats: int) -> None:
