@@ -175,9 +175,9 @@ def _series_block(g, a, m, p, tolerance, out):
     half_tol = 0.5 * tolerance
     s, q, res = np.zeros(n), np.zeros(n), np.zeros(n)
     inv = 1.0 / mm[:n]
-    fin = np.zeros(n, dtype=np.int64)
+    fin = np.zeros(n)  # 1.0 once stopped
     while n:
-        finished = 0  # an integer sum: a float one would not vectorise without reassoc
+        finished = 0  # an integer count: a float sum would not vectorise without reassoc
         for j in range(n):  # one term for each element: vectorised, free of branches
             t = pp[j] * inv[j]
             q[j] += t
@@ -189,17 +189,21 @@ def _series_block(g, a, m, p, tolerance, out):
             pp[j] *= gg[j] * inv_j
             slack = mj + 1.0 - gg[j]
             stop = (slack > 0.0) & (pp[j] * (mj + 1.0) <= half_tol * q[j] * mj * slack)
-            res[j] = s[j] if stop & (fin[j] == 0) else res[j]
-            fin[j] |= stop
-            finished += fin[j]
+            # Arithmetic, not a select (which kept LLVM from vectorising the loop):
+            # res (0 until then) receives s once, at the first stop.
+            was = fin[j]
+            now = max(was, 1.0 if stop else 0.0)
+            fin[j] = now
+            res[j] += (now - was) * s[j]
+            finished += now > 0.5
         if finished * 4 >= n:
             k = 0
             for j in range(n):
-                if fin[j]:
+                if fin[j] != 0.0:
                     out[idx[j]] = res[j]
                 else:
                     idx[k], gg[k], aa[k], mm[k], pp[k] = idx[j], gg[j], aa[j], mm[j], pp[j]
-                    s[k], q[k], inv[k], res[k], fin[k] = s[j], q[j], inv[j], res[j], 0
+                    s[k], q[k], inv[k], res[k], fin[k] = s[j], q[j], inv[j], res[j], 0.0
                     k += 1
             n = k
 
