@@ -93,3 +93,28 @@ def test_a_batch_of_shapes_goes_to_the_numpy_terms():
     with kernels.use(False):
         expected = HE.design(geometry, shape).offset
     assert _relative(single, expected) < AGREEMENT
+
+
+def test_fast_erfc_is_within_1e_14_of_scipy_and_its_fit_is_reproduced():
+    """The vectorisable erfc of the shadowing against scipy from 0 to 27 (erfc of 27 is
+    1e-319, below it fast_exp's flush), and the stored Chebyshev coefficients are
+    those fit_erfcx computes."""
+    import numba
+    from scipy.special import erfc
+
+    from brdffit.kernels import loops_he
+
+    @numba.njit
+    def run(x, out):
+        for i in range(x.size):
+            out[i] = loops_he.fast_erfc(x[i])
+
+    x = np.concatenate([np.linspace(0.0, 27.0, 100_001), np.logspace(-12, 0, 500), [0.5]])
+    got = np.empty_like(x)
+    run(x, got)
+    want = erfc(x)
+    normal = want > FLUSH * 1e3
+    assert np.max(np.abs(got[normal] / want[normal] - 1.0)) < 1e-14
+    assert (np.abs(got[~normal]) <= 1e3 * FLUSH).all()
+    stored = loops_he.ERFCX_CHEBYSHEV
+    np.testing.assert_allclose(loops_he.fit_erfcx(), stored, rtol=1e-9, atol=1e-15)
