@@ -39,7 +39,14 @@ from ._compile import FLAGS, fast_exp, jit
 from .elementary import fast_log
 from .wide import prefer_wide_vectors
 
-__all__ = ["he_offset", "he_offset_loop", "dd_series_loop"]
+__all__ = [
+    "dd_series_blocks",
+    "dd_series_loop",
+    "fast_erfc",
+    "he_offset",
+    "he_offset_loop",
+    "pair_terms",
+]
 
 _SQRT_2PI = math.sqrt(2.0 * math.pi)
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)
@@ -338,6 +345,30 @@ def he_offset_loop(cos_i, cos_o, cos_d, v_z, v_xy2, lobe, cone, wavelength, shap
                 d = scale_d * series[j]
                 out[i, c] = common[j] * cone[i] * fast_exp(-g[j]) + common[j] * lobe[i] * d
     return out
+
+
+@jit
+def dd_series_blocks(g, a, tolerance, out):
+    """The series of eq. 78 of every element of ``g`` and ``a`` (flat), as the model's
+    loop sums it: in blocks, in lockstep (for benchmarks/bench_he.py and the tests)."""
+    m, p = np.empty(BLOCK), np.empty(BLOCK)
+    for lo in range(0, g.shape[0], BLOCK):
+        hi = min(lo + BLOCK, g.shape[0])
+        _series_start(g[lo:hi], a[lo:hi], tolerance, m[: hi - lo], p[: hi - lo])
+        _series_block(g[lo:hi], a[lo:hi], m[: hi - lo], p[: hi - lo], tolerance, out[lo:hi])
+    return out
+
+
+@jit
+def pair_terms(cos_i, cos_o, cos_d, shape, sigma, common):
+    """``sigma`` and ``F S(L) S(V)`` of every pair, in blocks (for the benchmark);
+    ``shape`` as in :func:`he_offset_loop`."""
+    sigma0, tau = shape[0], shape[1]
+    for lo in range(0, cos_i.shape[0], BLOCK):
+        hi = min(lo + BLOCK, cos_i.shape[0])
+        _pair_terms(cos_i[lo:hi], cos_o[lo:hi], cos_d[lo:hi], tau / sigma0, sigma0,
+                    shape[2], shape[3], sigma[lo:hi], common[lo:hi])  # fmt: skip
+    return sigma, common
 
 
 def he_offset(geometry: Geometry, shape, cone: np.ndarray, tolerance: float) -> np.ndarray:

@@ -64,12 +64,14 @@ def test_compiled_he_equals_numpy_across_the_parameter_box(wavelength):
 
 def test_the_compiled_series_sums_the_same_terms():
     """dd_series_loop sums the window of dd_series: the same number of terms per
-    element (none where the series is negligible) and the same value to rounding."""
-    from brdffit.kernels.loops_he import dd_series_loop
+    element (none where the series is negligible) and the same value to rounding; so
+    does dd_series_blocks, the model loop's series (blocks of 512 elements in
+    lockstep; 1205 elements in three blocks)."""
+    from brdffit.kernels.loops_he import dd_series_blocks, dd_series_loop
 
     rng = np.random.default_rng(7)
-    g = np.concatenate([[0.0, 1e-300, 1e-6, 4.0, 4.5], 10.0 ** rng.uniform(-4, 4, 400)])
-    a = np.concatenate([[0.0, 1.0, 3e4, 0.0, 2.0], 10.0 ** rng.uniform(-3, 5, 400)])
+    g = np.concatenate([[0.0, 1e-300, 1e-6, 4.0, 4.5], 10.0 ** rng.uniform(-4, 4, 1200)])
+    a = np.concatenate([[0.0, 1.0, 3e4, 0.0, 2.0], 10.0 ** rng.uniform(-3, 5, 1200)])
     for tol in (SERIES_TOLERANCE, 1e-3, 1e-10):
         want, terms = dd_series(g, a, tol, count_terms=True)
         got = np.array([dd_series_loop(x, y, tol) for x, y in zip(g, a)])
@@ -79,6 +81,10 @@ def test_the_compiled_series_sums_the_same_terms():
         np.testing.assert_allclose(got[:, 0], want, rtol=AGREEMENT, atol=0.0)
         moderate = g < 1e3
         np.testing.assert_allclose(got[moderate, 0], want[moderate], rtol=1e-12, atol=0.0)
+        # The model's loop sums them in blocks, in lockstep: the same values.
+        blocks = dd_series_blocks(g, a, tol, np.empty(g.size))
+        np.testing.assert_allclose(blocks, want, rtol=AGREEMENT, atol=0.0)
+        np.testing.assert_allclose(blocks[moderate], want[moderate], rtol=1e-12, atol=0.0)
         assert (terms == 0).any() and terms.max() > 100
 
 
