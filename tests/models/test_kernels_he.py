@@ -124,3 +124,29 @@ def test_fast_erfc_is_within_1e_14_of_scipy_and_its_fit_is_reproduced():
     assert (np.abs(got[~normal]) <= 1e3 * FLUSH).all()
     stored = loops_he.ERFCX_CHEBYSHEV
     np.testing.assert_allclose(loops_he.fit_erfcx(), stored, rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize("sigma0, tau", [(1e-3, 100.0), (5.0, 0.05), (0.18, 3.0), (1e-3, 0.05)])
+def test_the_pair_terms_equal_numpy_from_the_normal_to_grazing(sigma0, tau):
+    """sigma (the vectorised Newton iteration of z0, then the scalar one where six steps
+    did not converge) and F S(L) S(V) (the vectorisable erfc, its clamp at 30 and the
+    normal's S = 1, K = 0) against the numpy terms, for tau / sigma0 from 0.01 to 1e5
+    (c of z0's equation from 0 to about 1e12) and cosines from 1 to MIN_COSINE: within
+    1e-12 relative. Not to rounding: near the normal the loop's ``1 - c^2`` is one fused
+    multiply-add (exact) where numpy rounds ``c^2`` first, which moves ``K`` by up to
+    2.4e-11 relative (measured at tau / sigma0 = 0.01); sigma and S dampen it."""
+    from brdffit.kernels.loops_he import pair_terms
+    from brdffit.models.he_terms import effective_roughness_ratio, roughness_k, shadowing
+    from brdffit.models.shared import fresnel_conductor
+
+    cos = np.concatenate([[1.0, 1.0 - 1e-16, 1e-10], np.cos(np.linspace(0.0, 1.5707, 700))])
+    cos_i, cos_o = np.meshgrid(cos, cos[::7])
+    cos_i, cos_o = cos_i.ravel(), cos_o.ravel()
+    cos_d = np.sqrt(0.5 * (1.0 + cos_i * cos_o))  # any V.H in (0, 1]
+    ratio = tau / sigma0
+    shape = np.array([sigma0, tau, 0.2, 3.5, SERIES_TOLERANCE])
+    sigma, common = pair_terms(cos_i, cos_o, cos_d, shape, *np.empty((2, cos_i.size)))
+    k_sum = roughness_k(cos_i, ratio) + roughness_k(cos_o, ratio)
+    np.testing.assert_allclose(sigma, sigma0 * effective_roughness_ratio(k_sum), rtol=1e-12)
+    want = shadowing(cos_i, ratio) * shadowing(cos_o, ratio) * fresnel_conductor(cos_d, 0.2, 3.5)
+    np.testing.assert_allclose(common, want, rtol=1e-12, atol=1e3 * FLUSH)
