@@ -15,7 +15,7 @@ relative, tests/models/test_kernels_he.py).
 The loop runs in blocks of :data:`BLOCK` pairs, in passes that LLVM vectorises
 (no library call, no select it cannot turn into arithmetic; eight lanes where the
 processor has AVX-512, :mod:`~.wide`: the pair terms 1.35x): per pair the shadowing
-and ``K`` with :func:`fast_erfc` (``erfc`` by its Taylor series and a Chebyshev
+and ``K`` with :func:`~.erfc.fast_erfc` (``erfc`` by its Taylor series and a Chebyshev
 series of ``erfcx``) and Fresnel, then the Newton iteration of ``z0`` for the whole
 block (six steps with :func:`~._compile.fast_exp` and :func:`~.elementary.fast_log`,
 then the scalar iteration for any pair not yet converged), then per wavelength the
@@ -37,12 +37,12 @@ import numpy as np
 from ..data.geometry import Geometry
 from ._compile import FLAGS, fast_exp, jit
 from .elementary import fast_log
+from .erfc import fast_erfc
 from .wide import prefer_wide_vectors
 
 __all__ = [
     "dd_series_blocks",
     "dd_series_loop",
-    "fast_erfc",
     "he_offset",
     "he_offset_loop",
     "pair_terms",
@@ -52,71 +52,6 @@ _SQRT_2PI = math.sqrt(2.0 * math.pi)
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)
 _TINY = 1e-300  # as brdffit.models.shared.fresnel_conductor
 MIN_COS_D = 1e-150  # as brdffit.models.wave.MIN_COS_D
-
-
-#: ``erfcx(x) = exp(x^2) erfc(x)`` for ``x >= 0.5`` is ``(K / x) C(u)``, ``C`` a Chebyshev
-#: series in ``u``, the image in [-1, 1] of ``t = (x - K) / (x + K)`` over [-0.6, 1]
-#: (the variable of Schonfelder, Chebyshev expansions for the error and related
-#: functions, Math. Comp. 32, 1978): :func:`fit_erfcx` computed the coefficients.
-ERFCX_K, ERFCX_T0 = 2.0, -0.6
-ERFCX_CHEBYSHEV = (
-    0.2439956040720817, 0.05802464273277516, -0.025263981867961503, 0.006078394732245653,
-    -0.0007399168994710511, -1.64448160544135e-05, 1.744647173006876e-05,
-    -5.063871348756339e-07, -4.78697911957348e-07, 1.662295123182116e-08,
-    1.6442453446243967e-08, 1.9349392141361064e-11, -6.325211859700279e-10,
-    -4.536323211338677e-11, 2.327069296371824e-11, 4.32683232399787e-12,
-    -6.098785635449861e-13, -2.8560246113254743e-13, -7.42918060908851e-15,
-    1.3859680593171703e-14, 2.5609992538300906e-15, -3.2889416401064565e-16,
-    -1.7735134078171591e-16, -7.246068730705806e-18, 4.5338994006305145e-17,
-    3.058891004880344e-17, 4.510297631479921e-17,
-)  # fmt: skip
-#: The coefficients but the first, highest first, in two halves (see fast_erfc).
-_CLENSHAW_HIGH = tuple(reversed(ERFCX_CHEBYSHEV[14:]))
-_CLENSHAW_LOW = tuple(reversed(ERFCX_CHEBYSHEV[1:14]))
-#: ``erf(x) = x sum_n c_n x^(2n)`` for ``x < 0.5``, ``c_n = 2 (-1)^n / (sqrt(pi) n! (2n+1))``,
-#: highest power first; the first term left out is below 3e-19.
-ERF_TAYLOR = tuple(
-    2.0 * (-1.0) ** n / (math.sqrt(math.pi) * math.factorial(n) * (2 * n + 1))
-    for n in range(13, -1, -1)
-)
-
-
-def fit_erfcx(degree: int = 26, points: int = 400) -> tuple:
-    """The least-squares Chebyshev fit of ``x erfcx(x) / K`` in ``t`` on Chebyshev points
-    (near the minimax fit), scipy's ``erfcx`` the reference: how
-    :data:`ERFCX_CHEBYSHEV` was computed."""
-    from scipy.special import erfcx
-
-    nodes = np.cos(np.pi * (np.arange(points) + 0.5) / points)
-    t = ERFCX_T0 + (1.0 - ERFCX_T0) * (nodes + 1.0) / 2.0
-    x = ERFCX_K * (1.0 + t) / (1.0 - t)
-    fitted = np.polynomial.Chebyshev.fit(t, erfcx(x) * x / ERFCX_K, degree, domain=[-0.6, 1.0])
-    return tuple(float(c) for c in fitted.coef)
-
-
-@numba.njit(inline="always", fastmath=FLAGS)
-def fast_erfc(x):
-    """``erfc(x)`` for ``0 <= x <= 30`` without a library call (vectorisable): ``1 - erf``
-    by its Taylor series below 0.5, ``exp(-x^2) erfcx(x)`` by :data:`ERFCX_CHEBYSHEV`
-    (Clenshaw's recurrence) above; relative error below 1e-14 (tested against
-    scipy)."""
-    z = x * x
-    e = ERF_TAYLOR[0]
-    for j in range(1, len(ERF_TAYLOR)):  # constant tuples: the loops are unrolled
-        e = e * z + ERF_TAYLOR[j]
-    small = 1.0 - x * e
-    xl = max(x, 0.5)
-    u = (2.0 * (xl - ERFCX_K) / (xl + ERFCX_K) - (ERFCX_T0 + 1.0)) / (1.0 - ERFCX_T0)
-    u2 = 2.0 * u
-    b1, b2 = 0.0, 0.0
-    # Two loops of 13: LLVM unrolls each (one of 26 it leaves a loop that indexes the
-    # tuple at run time, 8x slower and not vectorised).
-    for j in range(len(_CLENSHAW_HIGH)):
-        b1, b2 = u2 * b1 - b2 + _CLENSHAW_HIGH[j], b1
-    for j in range(len(_CLENSHAW_LOW)):
-        b1, b2 = u2 * b1 - b2 + _CLENSHAW_LOW[j], b1
-    large = (u * b1 - b2 + ERFCX_CHEBYSHEV[0]) * (ERFCX_K / xl) * fast_exp(-xl * xl)
-    return small if x < 0.5 else large
 
 
 @numba.njit(inline="always", fastmath=FLAGS)
@@ -315,14 +250,18 @@ def _pair_terms(cos_i, cos_o, cos_d, ratio, sigma0, eta, k, sigma, common):
 
 
 @jit
-def he_offset_loop(cos_i, cos_o, cos_d, v_z, v_xy2, lobe, cone, wavelength, shape, out):
+def he_offset_loop(cos_i, cos_o, cos_d, cos_r, v_z, v_xy2, lobe, inv_sqrt, wavelength, shape, out):
     """``rho_s + rho_dd`` of every pair (rows) and wavelength (columns of ``out``), in
     blocks of :data:`BLOCK` pairs.
 
-    ``lobe`` is ``G / (pi (N.L)(N.V))``, ``cone`` the spike's spread
-    ``w / (Omega sqrt((N.L)(N.V)))``, ``wavelength`` in micrometres, ``shape`` the
-    array ``(sigma0, tau, eta, k, tolerance)``."""
+    ``lobe`` is ``G / (pi (N.L)(N.V))``, ``inv_sqrt`` ``1 / sqrt((N.L)(N.V))``,
+    ``wavelength`` in micrometres, ``shape`` the array ``(sigma0, tau, eta, k,
+    tolerance, U)`` with ``U = 1 - cos(aperture)``: the spike's spread is
+    ``max(1 - (1 - R.V) / U, 0)^3 / (sqrt((N.L)(N.V)) pi U / 2)`` as the model's
+    ``_spike_spread``."""
     sigma0, tau, eta, k, tolerance = shape[0], shape[1], shape[2], shape[3], shape[4]
+    big_u = shape[5]
+    half_pi_u = 0.5 * math.pi * big_u
     sigma, common = np.empty(BLOCK), np.empty(BLOCK)
     work = np.empty((5, BLOCK))  # g, a, m, p and the series of a block
     g, a, m, p, series = work[0], work[1], work[2], work[3], work[4]
@@ -342,8 +281,10 @@ def he_offset_loop(cos_i, cos_o, cos_d, v_z, v_xy2, lobe, cone, wavelength, shap
             scale_d = (0.5 * math.pi * tau / lam) ** 2
             for j in range(b):
                 i = lo + j
+                w = max(1.0 - (1.0 - cos_r[i]) / big_u, 0.0)
+                cone = w * w * w * (inv_sqrt[i] / half_pi_u)
                 d = scale_d * series[j]
-                out[i, c] = common[j] * cone[i] * fast_exp(-g[j]) + common[j] * lobe[i] * d
+                out[i, c] = common[j] * cone * fast_exp(-g[j]) + common[j] * lobe[i] * d
     return out
 
 
@@ -371,18 +312,22 @@ def pair_terms(cos_i, cos_o, cos_d, shape, sigma, common):
     return sigma, common
 
 
-def he_offset(geometry: Geometry, shape, cone: np.ndarray, tolerance: float) -> np.ndarray:
+def he_offset(geometry: Geometry, shape, tolerance: float) -> np.ndarray:
     """The specular plus directional-diffuse BRDF of ``he`` on the valid pairs, shape
-    (M,) for one wavelength, (M, C) for C; ``cone`` from the model's ``_spike_spread``.
-    Shape parameters are numbers (``wavelength`` one or one per channel)."""
+    (M,) for one wavelength, (M, C) for C. Shape parameters are numbers
+    (``wavelength`` one or one per channel)."""
+    from ..models.wave import _inv_sqrt_cos, spike_support
+
     v_z, v_xy2, lobe = geometry.cached("kernels.he", lambda: _inputs(geometry))
     wavelength = np.asarray(shape["wavelength"], dtype=float) * 1e-3  # nm -> micrometres
+    big_u = spike_support(math.radians(shape["aperture"]))
     values = np.array(
-        [shape["sigma0"], shape["tau"], shape["eta"], shape["k"], tolerance], dtype=float
+        [shape["sigma0"], shape["tau"], shape["eta"], shape["k"], tolerance, big_u], dtype=float
     )
     lams = np.ascontiguousarray(wavelength.reshape(-1))
     out = np.empty((geometry.m, lams.size))
-    args = (geometry.cos_i, geometry.cos_o, geometry.cos_d, v_z, v_xy2, lobe, cone)
+    args = (geometry.cos_i, geometry.cos_o, geometry.cos_d, geometry.cos_r, v_z, v_xy2, lobe)
+    args = (*args, _inv_sqrt_cos(geometry))
     he_offset_loop(*(np.ascontiguousarray(x, dtype=float) for x in args), lams, values, out)
     return out if wavelength.ndim else out[:, 0]
 
