@@ -66,6 +66,7 @@ def _loaded() -> bool:
             from . import (  # noqa: F401
                 loops,
                 loops_empirical,
+                loops_he,
                 loops_microfacet,
                 loops_renderers,
                 plastic_table,

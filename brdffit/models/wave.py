@@ -68,16 +68,26 @@ def _inv_pi_cos(geometry: Geometry) -> np.ndarray:
     return geometry.cached("he.inv_pi_cos", lambda: INV_PI / (geometry.cos_i * geometry.cos_o))
 
 
+def _inv_sqrt_cos(geometry: Geometry) -> np.ndarray:
+    """``1 / sqrt((N.L)(N.V))``; cached."""
+    return geometry.cached(
+        "he.inv_sqrt_cos", lambda: 1.0 / np.sqrt(geometry.cos_i * geometry.cos_o)
+    )
+
+
+def spike_support(aperture: float) -> float:
+    """``U = 1 - cos(aperture)`` (radians), without cancellation."""
+    return 2.0 * math.sin(0.5 * aperture) ** 2
+
+
 def _spike_spread(geometry: Geometry, aperture: float) -> np.ndarray:
     """``w(V) / (Omega sqrt((N.L)(N.V)))``: the instrument's response about the mirror
     direction ``R(L)``, ``w = (1 - u/U)^3`` for ``u = 1 - V.R(L) < U = 1 - cos(aperture)``,
     0 beyond; ``Omega = pi U / 2`` is its integral over solid angle, so the spike's
     energy is kept. Only the parameter-free ``1 / sqrt((N.L)(N.V))`` is cached: one
     array per aperture tried would grow without bound in a fit that searched it."""
-    inv_sqrt = geometry.cached(
-        "he.inv_sqrt_cos", lambda: 1.0 / np.sqrt(geometry.cos_i * geometry.cos_o)
-    )
-    big_u = 2.0 * math.sin(0.5 * aperture) ** 2  # 1 - cos(aperture), without cancellation
+    inv_sqrt = _inv_sqrt_cos(geometry)
+    big_u = spike_support(aperture)
     weight = np.maximum(1.0 - (1.0 - geometry.cos_r) / big_u, 0.0) ** 3
     return weight * (inv_sqrt / (0.5 * math.pi * big_u))
 
@@ -136,6 +146,16 @@ def he_components(geometry: Geometry, shape, tolerance: float = SERIES_TOLERANCE
 
 
 def _he_design(geometry: Geometry, shape) -> Design:
+    """``a_ud / pi`` as the column, spike and lobe as the offset; by the compiled loop
+    (:mod:`brdffit.kernels.loops_he`) when the kernels are wanted for the geometry and
+    the shape parameters are numbers (a batch of them goes to the numpy terms)."""
+    from .. import kernels
+
+    scalar = all(np.ndim(v) == 0 for k, v in shape.items() if k != "wavelength")
+    if scalar and np.ndim(shape["wavelength"]) <= 1 and kernels.wanted(geometry.m):
+        from ..kernels.loops_he import he_offset
+
+        return Design((INV_PI,), offset=he_offset(geometry, shape, SERIES_TOLERANCE))
     specular, directional = he_components(geometry, shape)
     return Design((INV_PI,), offset=specular + directional)
 

@@ -36,6 +36,9 @@ from brdffit.models.properties import albedo
 from brdffit.models.wave import HE, MODELS, _v_terms, he_components
 from brdffit.synth import synthesize
 
+#: Every test runs with the compiled loop (brdffit.kernels.loops_he) on, then off.
+pytestmark = pytest.mark.usefixtures("evaluation_path")
+
 PARAMS = dict(a_ud=0.0, sigma0=0.18, tau=3.0, eta=1.5, k=0.0, aperture=1.0, wavelength=550.0)
 METAL = {**PARAMS, "sigma0": 0.3, "tau": 2.0, "eta": 0.2, "k": 3.5, "wavelength": 633.0}
 
