@@ -51,11 +51,12 @@ def enabled() -> bool:
     return _AVAILABLE and _state["on"] is not False
 
 
-def wanted(pairs: int) -> bool:
-    """Whether to use the compiled kernels on a geometry of ``pairs`` valid pairs."""
+def wanted(pairs: int, minimum: int = MIN_PAIRS) -> bool:
+    """Whether to use the compiled kernels on a geometry of ``pairs`` valid pairs
+    (by default from ``minimum`` pairs on: :data:`MIN_PAIRS`, or a model's own)."""
     if not (_AVAILABLE and pairs > 0) or _state["on"] is False:
         return False
-    return (_state["on"] is True or pairs >= MIN_PAIRS) and _loaded()
+    return (_state["on"] is True or pairs >= minimum) and _loaded()
 
 
 def _loaded() -> bool:

@@ -150,3 +150,23 @@ def test_the_pair_terms_equal_numpy_from_the_normal_to_grazing(sigma0, tau):
     np.testing.assert_allclose(sigma, sigma0 * effective_roughness_ratio(k_sum), rtol=1e-12)
     want = shadowing(cos_i, ratio) * shadowing(cos_o, ratio) * fresnel_conductor(cos_d, 0.2, 3.5)
     np.testing.assert_allclose(common, want, rtol=1e-12, atol=1e3 * FLUSH)
+
+
+def test_he_takes_its_loop_below_min_pairs(monkeypatch):
+    """The numpy series costs milliseconds an evaluation at any size, so he uses its
+    loop from one pair on when the kernels go by size (the other models from
+    kernels.MIN_PAIRS); switched off, it never does."""
+    from brdffit.kernels import loops_he
+
+    calls = []
+    original = loops_he.he_offset
+    monkeypatch.setattr(loops_he, "he_offset", lambda *a: calls.append(1) or original(*a))
+    wi, wo = hemisphere_pairs(300, seed=12)
+    assert 300 < kernels.MIN_PAIRS
+    with kernels.use(None):
+        compiled = HE.evaluate(wi, wo, HE.defaults())
+    assert calls == [1]
+    with kernels.use(False):
+        reference = HE.evaluate(wi, wo, HE.defaults())
+    assert calls == [1]
+    np.testing.assert_allclose(compiled, reference, rtol=1e-10, atol=1e-300)
