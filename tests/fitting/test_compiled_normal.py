@@ -31,6 +31,16 @@ def _solve_both(problem: Problem, x):
     return compiled, stacked
 
 
+def _assert_the_same_solutions(problem: Problem, seed: int):
+    """Compiled and stacked normal equations give the same solution at 5 random shapes."""
+    rng = np.random.default_rng(seed)
+    for _ in range(5):
+        x = rng.uniform(problem.lower, problem.upper)
+        compiled, stacked = _solve_both(problem, x)
+        np.testing.assert_allclose(compiled.coefs, stacked.coefs, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(compiled.loss, stacked.loss, rtol=1e-9)
+
+
 @pytest.mark.parametrize(
     ("model", "weights"),
     [("ggx", None), ("cook_torrance", "samples"), ("blinn", None), ("lambert", None)],
@@ -39,12 +49,7 @@ def test_compiled_normal_equations_give_the_stacked_solution(model, weights):
     data = _data(model, 3000, 5)
     w = None if weights is None else np.random.default_rng(2).uniform(0.2, 3.0, data.n)
     problem = Problem(data, model, weights=w)
-    rng = np.random.default_rng(9)
-    for _ in range(5):
-        x = rng.uniform(problem.lower, problem.upper)
-        compiled, stacked = _solve_both(problem, x)
-        np.testing.assert_allclose(compiled.coefs, stacked.coefs, rtol=1e-9, atol=1e-12)
-        np.testing.assert_allclose(compiled.loss, stacked.loss, rtol=1e-9)
+    _assert_the_same_solutions(problem, 9)
 
 
 @pytest.mark.parametrize("model", ["ggx", "ward", "blinn"])
@@ -59,12 +64,7 @@ def test_weights_per_channel_give_the_stacked_solution(model):
     with kernels.use(True):
         cols = problem.model.design(problem.geometry, problem.shape_from_x(problem.lower))
         assert problem._compiled_normal(list(cols.columns), None) is not None
-    rng = np.random.default_rng(10)
-    for _ in range(5):
-        x = rng.uniform(problem.lower, problem.upper)
-        compiled, stacked = _solve_both(problem, x)
-        np.testing.assert_allclose(compiled.coefs, stacked.coefs, rtol=1e-9, atol=1e-12)
-        np.testing.assert_allclose(compiled.loss, stacked.loss, rtol=1e-9)
+    _assert_the_same_solutions(problem, 10)
 
 
 def test_the_compiled_pass_is_taken_only_where_it_applies():
