@@ -35,7 +35,7 @@ from .losses import LossContext
 from .misfit import assess, refit_on_misfit
 from .noise import reweight
 from .options import DEFAULT_GLOBAL, DEFAULT_LOCAL, FitOptions
-from .problem import BAD_LOSS, Problem
+from .problem import BAD_LOSS, Problem, linear_at_bounds
 from .result import FitResult, metrics_of
 
 #: The largest |value| of fitted data must lie in this range: the fit squares
@@ -234,11 +234,8 @@ def _start(problem: Problem, start) -> np.ndarray | None:
 
 def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:
     """The free parameters at a bound of their range: shape parameters in the search
-    space, linear ones (kd, ks...) in any channel (the solve clips them there), each
-    within 1e-6 of its range (of 1 for a linear one with a wider range). The polish
-    stops at 1e-7 relative in the shape parameters, and a coefficient the data put at
-    its bound comes out up to 7e-8 from it (measured: kd of 18 noiseless blinn fits
-    with kd = 0; at 1e-9 of its range 10 of them were not reported)."""
+    space (within 1e-6 of it), linear ones (kd, ks...) in any channel (the solve clips
+    them there; :func:`~brdffit.fitting.problem.linear_at_bounds`)."""
     out = []
     for p, v, lo, hi in zip(problem.free_shape, x, problem.lower, problem.upper):
         tol = 1e-6 * max(hi - lo, 1e-12)
@@ -247,9 +244,8 @@ def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:
     for p in problem.model.linear_params:
         if p.name in problem.fixed:
             continue
-        value = np.asarray(params[p.name], dtype=float)
-        tol = 1e-6 * min((p.upper if np.isfinite(p.upper) else 1.0) - p.lower, 1.0)
-        if np.any(value <= p.lower + tol) or np.any(value >= p.upper - tol):
+        low, high = linear_at_bounds(p, params[p.name])
+        if np.any(low) or np.any(high):
             out.append(p.name)
     return tuple(out)
 

@@ -47,6 +47,8 @@ from dataclasses import fields, replace
 
 import numpy as np
 
+from .problem import linear_at_bounds
+
 __all__ = ["ANISOTROPY", "MAX_RELATIVE_WIDTH", "RANK_RTOL", "unidentified"]
 
 #: The parameters that make each anisotropic model anisotropic (its isotropic
@@ -303,7 +305,7 @@ def _coefficient_columns(problem, params, geometry, base, p, deadline):
     channel: a channel's values depend on its own linear parameters only."""
     value = np.broadcast_to(np.asarray(params[p.name], dtype=float), (problem.n_channels,))
     span = (p.upper if math.isfinite(p.upper) else 1.0) - p.lower
-    inside = (value > p.lower + 1e-9 * span) & (value < p.upper - 1e-9 * span)
+    inside = (value > p.lower) & (value < p.upper)  # those at a bound were set to it
     if not inside.any():
         return
     h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
@@ -315,18 +317,16 @@ def _coefficient_columns(problem, params, geometry, base, p, deadline):
 
 
 def _at_their_bounds(problem, params: dict) -> dict:
-    """``params`` with each linear parameter's channels that are at a bound (within
-    1e-9 of the range, :func:`_coefficient_columns`) set to it: held there, they
-    decide the derivatives of the others as the bound does. (A lobe fitted to data
-    without one keeps ks of 1e-13 from round-off: its shape then looked seen.)"""
+    """``params`` with each linear parameter's channels that are at a bound (the fit's
+    rule, :func:`~brdffit.fitting.problem.linear_at_bounds`) set to it: held there,
+    they decide the derivatives of the others as the bound does. (A lobe fitted to
+    data without one keeps ks of 1e-13 from round-off: its shape then looked seen.)"""
     out = dict(params)
     for p in problem.model.linear_params:
         if p.name in problem.fixed:
             continue
-        value = np.asarray(params[p.name], dtype=float)
-        span = (p.upper if math.isfinite(p.upper) else 1.0) - p.lower
-        snapped = np.where(value <= p.lower + 1e-9 * span, p.lower, value)
-        snapped = np.where(value >= p.upper - 1e-9 * span, p.upper, snapped)
+        low, high = linear_at_bounds(p, params[p.name])
+        snapped = np.where(low, p.lower, np.where(high, p.upper, params[p.name]))
         out[p.name] = float(snapped) if snapped.ndim == 0 else snapped
     return out
 

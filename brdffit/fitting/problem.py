@@ -34,7 +34,7 @@ from .solve import (
     stack_columns,
 )
 
-__all__ = ["Problem", "Solution"]
+__all__ = ["Problem", "Solution", "linear_at_bounds"]
 
 
 class Problem:
@@ -356,6 +356,19 @@ class Problem:
         values.setflags(write=False)
         self._last_prediction = (key, weakref.ref(values))  # one assignment: thread-safe
         return values
+
+
+def linear_at_bounds(p, value) -> tuple[np.ndarray, np.ndarray]:
+    """Where a linear parameter's ``value`` (a channel's, or all channels') is at its
+    lower and its upper bound: within 1e-6 of its range (of 1 for a wider one). The
+    polish stops at 1e-7 relative in the shape parameters, and a coefficient the data
+    put at a bound comes out up to 7e-8 from it (measured: kd of 18 noiseless blinn
+    fits with kd = 0; at 1e-9 of its range 10 of them were not at it). The fit's
+    ``at_bounds`` and the identifiability check (which holds such coefficients there)
+    use this one rule."""
+    tol = 1e-6 * min((p.upper if np.isfinite(p.upper) else 1.0) - p.lower, 1.0)
+    value = np.asarray(value, dtype=float)
+    return value <= p.lower + tol, value >= p.upper - tol
 
 
 def _fingerprint(params: Mapping) -> tuple:
