@@ -11,6 +11,7 @@ design (``reference``).
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Callable, Mapping
 
@@ -25,35 +26,23 @@ from .inputs_empirical import LOBES as EMPIRICAL_LOBES
 __all__ = ["CompiledDesign", "SPECS"]
 
 
-def _loops():
-    from . import loops  # numba compiles (or loads its cache) on the first call only
-
-    return loops
-
-
-def _microfacet_loops():
-    from . import loops_microfacet
-
-    return loops_microfacet
-
-
-def _empirical_loops():
-    from . import loops_empirical
-
-    return loops_empirical
+def _loops(module: str = "loops"):
+    """A module of compiled loops, imported on first use (numba compiles, or loads
+    its cache, on a loop's first call only)."""
+    return importlib.import_module(f".{module}", __package__)
 
 
 class _Lobe:
     """``kd/pi + ks lobe``: a loop of :mod:`~brdffit.kernels.loops` (or of the module
-    ``loops`` returns), its inputs and the shape parameters it takes, transformed
-    (``alpha -> alpha^2``)."""
+    ``loops`` of this package), its inputs and the shape parameters it takes,
+    transformed (``alpha -> alpha^2``)."""
 
-    def __init__(self, loop: str, prepare: Callable, shape: Callable, loops: Callable = _loops):
+    def __init__(self, loop: str, prepare: Callable, shape: Callable, loops: str = "loops"):
         self.loop, self.prepare, self.shape, self.loops = loop, prepare, shape, loops
 
     def run(self, geometry, shape: Mapping, a: float, b: float) -> np.ndarray:
         out = np.empty(geometry.m)
-        loop = getattr(self.loops(), self.loop)
+        loop = getattr(_loops(self.loops), self.loop)
         return loop(*self.prepare(geometry), *self.shape(shape), a, b, out)
 
     def design(self, geometry, shape: Mapping) -> Design:
@@ -111,7 +100,7 @@ def _anisotropic(u: str, v: str) -> Callable:
 SPECS = {
     "ggx": _Lobe("ggx", inputs.microfacet_inputs, _alpha2("alpha", "f0")),
     "beckmann": _Lobe(
-        "beckmann", inputs.beckmann_inputs, _alpha2("alpha", "f0"), _microfacet_loops
+        "beckmann", inputs.beckmann_inputs, _alpha2("alpha", "f0"), "loops_microfacet"
     ),
     "ward": _Lobe("ward", inputs.ward_inputs, _alpha2("alpha")),
     "cook_torrance": _Lobe("cook_torrance", inputs.cook_torrance_inputs, _alpha2("m", "eta")),
@@ -143,15 +132,15 @@ SPECS = {
         "ggx_anisotropic",
         inputs.ggx_anisotropic_inputs,
         _anisotropic("alpha_u", "alpha_v"),
-        _microfacet_loops,
+        "loops_microfacet",
     ),
     "beckmann_anisotropic": _Lobe(
         "beckmann_anisotropic",
         inputs.beckmann_anisotropic_inputs,
         _anisotropic("alpha_u", "alpha_v"),
-        _microfacet_loops,
+        "loops_microfacet",
     ),
-    **{name: _Lobe(*lobe, loops=_empirical_loops) for name, lobe in EMPIRICAL_LOBES.items()},
+    **{name: _Lobe(*lobe, loops="loops_empirical") for name, lobe in EMPIRICAL_LOBES.items()},
 }
 SPECS.update(_RENDERER_SPECS)
 
