@@ -33,6 +33,10 @@ from ..errors import FitError
 from .problem import BAD_LOSS, Problem
 from .schedule import FINE_FTOL, FINE_STEP, note, stratified_rows, subproblem
 
+#: A polish's relative tolerance on the loss (the polish on all of large data stops at
+#: the looser :data:`~brdffit.fitting.schedule.FINE_FTOL`).
+POLISH_FTOL = 1e-12
+
 __all__ = [
     "CONVERGED",
     "GLOBAL_SAMPLES",
@@ -148,7 +152,7 @@ class Search:
         if answer is False:
             self.stopped = STOPPED
 
-    def run(self, algorithm: str, x0, budget: int, stage: str, step=None, ftol=1e-12):
+    def run(self, algorithm: str, x0, budget: int, stage: str, step=None, ftol=POLISH_FTOL):
         """Run one nlopt stage; return nlopt's result code (None if it could not start).
         ``step``: a local algorithm's initial step, as a share of each range; ``ftol``:
         its relative tolerance on the loss."""
@@ -189,7 +193,7 @@ class Search:
         return code
 
 
-def _optimiser(algorithm: str, problem: Problem, step=None, ftol=1e-12):
+def _optimiser(algorithm: str, problem: Problem, step=None, ftol=POLISH_FTOL):
     """An nlopt optimiser of ``algorithm`` on the problem's box, with the stage's
     tolerances (the global stage runs to its budget; the polish to 1e-7 in x or
     ``ftol`` relative in the loss, its initial step ``step`` of each range, 0.05 by
