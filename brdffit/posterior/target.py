@@ -68,7 +68,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import FitError
-from ..fitting.losses import LossContext
+from ..fitting.losses import LossContext, abs_max_by_channel
 from .design import batched_design, batches_agree, dense, looped_design
 from .truncnorm import LOG_2PI, draw_box_gaussian, log_mass
 
@@ -140,7 +140,7 @@ class Target:
                 )
             w = u[:, None] / p.noise_sigma**2
         elif self.noise == "relative":
-            floor = 1e-3 * np.maximum(np.abs(y).max(axis=0), 1e-300)
+            floor = 1e-3 * np.maximum(abs_max_by_channel(y), 1e-300)
             w = u[:, None] / np.maximum(np.abs(y), floor) ** 2
         else:
             cos_i = np.maximum(data.wi[:, 2], 0.0)

@@ -1,0 +1,36 @@
+"""The losses' per-channel scale: the folded maximum equals numpy's reduction."""
+
+import numpy as np
+import pytest
+
+from brdffit.fitting.losses import LossContext, abs_max_by_channel
+
+
+@pytest.mark.parametrize("rows", [1, 7, 255, 256, 257, 1000, 100_003])
+@pytest.mark.parametrize("channels", [1, 3, 31])
+def test_abs_max_by_channel_is_numpys(rows, channels):
+    a = np.random.default_rng(rows * channels).normal(size=(rows, channels))
+    np.testing.assert_array_equal(abs_max_by_channel(a), np.abs(a).max(axis=0))
+
+
+def test_abs_max_by_channel_finds_the_extreme_in_the_remainder_and_keeps_nan():
+    a = np.random.default_rng(1).normal(size=(1000, 3))
+    a[-1, 0] = -50.0  # in the rows after the last whole fold
+    a[3, 2] = np.nan
+    out = abs_max_by_channel(a)
+    assert out[0] == 50.0
+    assert out[1] == np.abs(a[:, 1]).max()
+    assert np.isnan(out[2])
+
+
+def test_abs_max_by_channel_of_a_strided_view():
+    a = np.random.default_rng(2).normal(size=(3000, 6))[:, ::2]
+    np.testing.assert_array_equal(abs_max_by_channel(a), np.abs(a).max(axis=0))
+
+
+def test_y_scale_uses_it():
+    y = np.random.default_rng(3).normal(size=(5000, 3))
+    y[:, 1] = 0.0
+    ctx = LossContext(cos_i=np.ones(5000), y=y, sigma=None, weights=None)
+    expected = np.maximum(np.abs(y).max(axis=0), 1e-300)
+    np.testing.assert_array_equal(ctx.y_scale, expected)
