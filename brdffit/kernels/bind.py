@@ -48,9 +48,21 @@ class _Lobe:
     def design(self, geometry, shape: Mapping) -> Design:
         return Design((INV_PI, self.run(geometry, shape, 1.0, 0.0)))
 
+    #: :meth:`evaluate` takes coefficients per channel.
+    by_channel = True
+
     def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray:
-        kd, ks = (float(c) for c in coefs)
-        return self.run(geometry, shape, ks, kd * INV_PI)
+        """The BRDF (M,), or (M, C) when ``kd`` or ``ks`` is given per channel."""
+        kd, ks = coefs
+        if np.ndim(kd) == 0 and np.ndim(ks) == 0:
+            return self.run(geometry, shape, float(ks), float(kd) * INV_PI)
+        lobe = self.run(geometry, shape, 1.0, 0.0)
+        c = max(np.size(kd), np.size(ks))
+        scale, offset = (
+            np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (c,)))
+            for v in (ks, np.multiply(kd, INV_PI))
+        )
+        return _loops().affine_by_channel(lobe, scale, offset, np.empty((geometry.m, c)))
 
 
 class _AshikhminShirley:
@@ -186,8 +198,10 @@ class CompiledDesign:
 
     def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray | None:
         """The BRDF on the valid pairs in one compiled pass, or None when the kernels
-        are off or a coefficient is given per channel (then the caller combines the
-        design's columns)."""
-        if not self._wanted(geometry.m) or any(np.ndim(c) for c in coefs):
+        are off or a coefficient is given per channel to a model whose compiled form
+        takes one value each (then the caller combines the design's columns)."""
+        if not self._wanted(geometry.m):
+            return None
+        if any(np.ndim(c) for c in coefs) and not getattr(self.compiled, "by_channel", False):
             return None
         return self.compiled.evaluate(geometry, shape, coefs)

@@ -225,6 +225,20 @@ def ashikhmin_shirley(log_t, log_b, log_scale, weight, diffuse, nu, nv, rd_eff, 
     return out
 
 
+@numba.njit(cache=True, error_model="numpy")
+def affine_by_channel(lobe, scale, offset, out):
+    """``out[i, k] = lobe[i] * scale[k] + offset[k]`` (M, C): a BRDF with its linear
+    coefficients per channel, in one pass (numpy's outer product of an (M,) and a (3,)
+    array runs an inner loop of 3 elements: 13 ms on a MERL file, 3 here). The same
+    operations in the same order as :func:`brdffit.models.base.combine`, without
+    contraction into fused multiply-adds: the same values."""
+    c = scale.shape[0]
+    for i in range(lobe.shape[0]):
+        for k in range(c):
+            out[i, k] = lobe[i] * scale[k] + offset[k]
+    return out
+
+
 @numba.njit(cache=True, fastmath=True, error_model="numpy")
 def moments(lobe, w, wy_t):
     """``(S1, S2)`` and ``T1`` (C,) of :mod:`brdffit.kernels.normal`, ``w`` empty for
