@@ -45,13 +45,17 @@ def _constants(w, wy) -> tuple:
     for ref_w, ref_wy, values in _constant_cache:
         if ref_wy() is wy and (w is None if ref_w is None else ref_w() is w):
             return values
+    # The per-channel sums from the transposed copies: numpy sums an (M, C) array's
+    # columns one row at a time (32 ms on a MERL file's targets, 2 ms on a row each).
     if w is None:
         s0, w_t = float(wy.shape[0]), None
     elif w.ndim == 1:
         s0, w_t = float(np.sum(w)), None
     else:
-        s0, w_t = w.sum(axis=0), np.ascontiguousarray(w.T, dtype=float)
-    values = (s0, wy.sum(axis=0), np.ascontiguousarray(wy.T, dtype=float), w_t)
+        w_t = np.ascontiguousarray(w.T, dtype=float)
+        s0 = w_t.sum(axis=1)
+    wy_t = np.ascontiguousarray(wy.T, dtype=float)
+    values = (s0, wy_t.sum(axis=1), wy_t, w_t)
     _constant_cache[:] = [(None if w is None else weakref.ref(w), weakref.ref(wy), values)]
     weakref.finalize(wy, _constant_cache.clear)  # the copies go with the targets
     return values
