@@ -22,6 +22,7 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
+from .. import kernels
 from .losses import LOSSES, LossContext
 
 __all__ = ["BLOCK", "loss_sums"]
@@ -61,6 +62,8 @@ def loss_sums(pred: np.ndarray, ctx: LossContext) -> dict:
     per_sample = [f.name for f in fields(LossContext)
                   if isinstance(getattr(ctx, f.name), np.ndarray)
                   and getattr(ctx, f.name).shape[:1] == y.shape[:1]]  # fmt: skip
+    if kernels.wanted(y.size):
+        return _compiled(pred, y, ctx, names)
     totals = dict.fromkeys([*names, "rss"], 0.0)
     for start in range(0, len(y), BLOCK):
         block = slice(start, start + BLOCK)
@@ -68,6 +71,45 @@ def loss_sums(pred: np.ndarray, ctx: LossContext) -> dict:
         for name, value in _block_sums(pred[block], part, names).items():
             totals[name] += value
     return totals
+
+
+def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) -> dict:
+    """:func:`loss_sums` with the linear losses summed by the compiled loop of
+    :mod:`brdffit.kernels.loops_sums`, and the log and cbrt ones by numpy on blocks
+    of its projected values laid out channel by channel."""
+    from ..kernels import loops_sums
+
+    def per_value(a):
+        if a is None:
+            return np.empty((0, 0))
+        a = np.asarray(a, dtype=float)
+        return np.ascontiguousarray(np.broadcast_to(a.reshape(len(a), -1), y.shape))
+
+    pred, y = np.ascontiguousarray(pred), np.ascontiguousarray(y)
+    cos = np.ascontiguousarray(ctx.cos_i, dtype=float)
+    w = None if ctx.weights is None else np.ascontiguousarray(ctx.weights, dtype=float)
+    scale = 1e-3 * np.broadcast_to(ctx.y_scale, y.shape[1:]).astype(float)
+    linear = loops_sums.linear_sums(pred, y, cos, np.empty(0) if w is None else w, scale,
+                                    per_value(ctx.sigma), per_value(ctx.noise_sigma))  # fmt: skip
+    totals = dict(zip(loops_sums.NAMES, linear.tolist()))
+    totals.update(log=0.0, cbrt=0.0)
+    fc, yc = np.empty((2, y.shape[1], BLOCK))
+    for start in range(0, len(y), BLOCK):
+        size = min(BLOCK, len(y) - start)
+        f_block, y_block = fc[:, :size], yc[:, :size]
+        loops_sums.project(pred, y, cos, start, f_block, y_block)
+        weights = None if w is None else w[start : start + size]
+        projected = {"f": f_block, "y": y_block}
+        totals["cbrt"] += _row_squares(_cbrt_difference(projected), weights)
+        totals["log"] += _row_squares(_log_difference(projected), weights)
+    return {name: totals[name] for name in [*names, "rss"]}
+
+
+def _row_squares(d: np.ndarray, weights) -> float:
+    """``sum_c sum_b w_b d_cb^2`` of ``d`` (C, B)."""
+    if weights is None:
+        return float(np.einsum("cb,cb->", d, d))
+    return float(np.einsum("cb,cb,b->", d, d, weights))
 
 
 def _block_sums(pred: np.ndarray, ctx: LossContext, names: list) -> dict:

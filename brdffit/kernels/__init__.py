@@ -70,6 +70,7 @@ def _loaded() -> bool:
                 loops_he,
                 loops_microfacet,
                 loops_renderers,
+                loops_sums,
                 plastic_table,
             )
         except Exception as exc:  # ImportError, or numba's own errors on import

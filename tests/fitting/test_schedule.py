@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from helpers import make_data
 
-from brdffit import FitError, Measurements, fit
+from brdffit import FitError, Measurements, fit, kernels
 from brdffit.fitting import sums
 from brdffit.fitting.losses import LOSSES, LossContext
 from brdffit.fitting.options import COARSE_ABOVE
@@ -48,12 +48,23 @@ def _old_metrics(pred, y, ctx, n_params):
     return out
 
 
+@pytest.mark.parametrize("compiled", [False, True], ids=["numpy", "compiled"])
 @pytest.mark.parametrize("block", [16_384, 1000])
 @pytest.mark.parametrize("extras", ["none", "weights", "sigma and noise"])
-def test_metrics_from_one_residual_equal_the_old_formula(ward_data, extras, block, monkeypatch):
+def test_metrics_from_one_residual_equal_the_old_formula(
+    ward_data, extras, block, compiled, monkeypatch
+):
     """The metrics summed over blocks of samples (several blocks with 1000) equal every
-    loss's own value on all the samples at once."""
+    loss's own value on all the samples at once, by numpy and by the compiled sums of
+    the linear losses (brdffit.kernels.loops_sums, used on large data)."""
+    if compiled and not kernels.available():
+        pytest.skip("numba is not installed: no compiled sums")
     monkeypatch.setattr(sums, "BLOCK", block)
+    calls = []
+    if compiled:
+        monkeypatch.setattr(kernels, "_state", {**kernels._state, "on": True})
+        real = sums._compiled
+        monkeypatch.setattr(sums, "_compiled", lambda *a: calls.append(1) or real(*a))
     result = fit(ward_data, "ward", loss="l2")
     problem = Problem(ward_data, "ward")
     pred = np.asarray(problem.predict(dict(result.params)))
@@ -71,6 +82,7 @@ def test_metrics_from_one_residual_equal_the_old_formula(ward_data, extras, bloc
     assert len(old) >= 8
     for name in old:
         assert new[name] == pytest.approx(old[name], rel=1e-12, abs=1e-300), name
+    assert bool(calls) == compiled
 
 
 class _Counting:
