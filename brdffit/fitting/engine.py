@@ -274,7 +274,7 @@ def _coarse_to_fine(main: Search, options, x_start, have_start: bool):
     """The search of :mod:`~brdffit.fitting.schedule`: both stages on a stratified
     subsample, then one polish on every sample from the subsample's best point."""
     p = main.problem
-    sub_problem = subproblem(p, stratified_rows(p.geometry, options.coarse_samples, options.seed))
+    sub_problem = subproblem(p, *stratified_rows(p, options.coarse_samples, options.seed))
     sub = Search(sub_problem, main.max_evals, main.deadline, main.progress, main.t0)
     starts = [x_start] if (have_start or options.global_algorithm is None) else []
     if options.global_algorithm is not None:

@@ -122,25 +122,57 @@ def test_the_prediction_at_the_same_params_is_formed_once(ward_data):
     assert calls == [1, 1, 1]
 
 
-def test_stratified_rows_keep_each_cell_share_and_the_seed():
-    data = make_data("ward", {"kd": 0.1, "ks": 0.3, "alpha": 0.12}, n=20000, seed=2)
-    g = data.geometry()
-    rows = stratified_rows(g, 2000, seed=5)
-    assert rows.size == 2000 and np.all(np.diff(rows) > 0) and rows[-1] < g.m
-    assert np.array_equal(rows, stratified_rows(g, 2000, seed=5))
-    assert not np.array_equal(rows, stratified_rows(g, 2000, seed=6))
-    # Every cell of the (theta_h, theta_d) grid within one sample of its share.
+def _cells_of(g) -> np.ndarray:
     h = g.wi + g.wo
     norm = np.linalg.norm(h, axis=1)
     theta_h, theta_d = np.arccos(h[:, 2] / norm), np.arccos(np.clip(norm / 2, 0, 1))
     cell = np.minimum((theta_h / (np.pi / 2) * BINS).astype(int), BINS - 1) * BINS
-    cell += np.minimum((theta_d / (np.pi / 2) * BINS).astype(int), BINS - 1)
-    share = np.bincount(cell, minlength=BINS * BINS) * (2000 / g.m)
+    return cell + np.minimum((theta_d / (np.pi / 2) * BINS).astype(int), BINS - 1)
+
+
+def test_stratified_rows_give_each_cell_its_allocation_and_keep_the_seed():
+    """Half proportional, half Neyman (cell size times the spread of y): every cell of
+    the (theta_h, theta_d) grid within one sample of its allocation, weighted by the
+    inverse of its probability (computed here from the definition)."""
+    data = make_data("ward", {"kd": 0.1, "ks": 0.3, "alpha": 0.12}, n=20000, seed=2)
+    problem = Problem(data, "ward", loss="l2")
+    g = problem.geometry
+    rows, weights = stratified_rows(problem, 2000, seed=5)
+    assert abs(rows.size - 2000) <= 1 and np.all(np.diff(rows) > 0) and rows[-1] < g.m
+    assert np.array_equal(rows, stratified_rows(problem, 2000, seed=5)[0])
+    assert not np.array_equal(rows, stratified_rows(problem, 2000, seed=6)[0])
+    cell = _cells_of(g)
+    counts = np.bincount(cell, minlength=BINS * BINS)
+    y = np.asarray(data.values, dtype=float)
+    spread = np.zeros(BINS * BINS)
+    for h in np.flatnonzero(counts >= 2):
+        spread[h] = np.sqrt(np.var(y[cell == h], axis=0, ddof=1).sum())
+    share = 0.5 * counts / counts.sum() + 0.5 * counts * spread / np.sum(counts * spread)
+    allocation = 2000 * share
+    while np.any(allocation > counts + 1e-9):  # cells that would get more give it back
+        full = allocation >= counts - 1e-9
+        rest = (2000 - counts[full].sum()) * share / share[~full].sum()
+        allocation = np.where(full, counts, rest)
+    drawn = np.bincount(cell[rows], minlength=BINS * BINS)
+    assert np.max(np.abs(drawn - allocation)) <= 1.0 + 1e-9
+    expected = counts[cell[rows]] / allocation[cell[rows]]
+    np.testing.assert_allclose(weights, expected / expected.mean(), rtol=1e-12)
+    # The highlight's cells (the largest spread) get more than their proportional share.
+    top = np.argsort(counts * spread)[-5:]
+    assert np.all(drawn[top] > counts[top] * 2000 / g.m)
+
+
+def test_targets_without_spread_draw_in_proportion(ward_data):
+    """Where no cell's targets vary, Neyman's half is the proportional half: every cell
+    its share, every weight 1."""
+    flat = Measurements(ward_data.wi, ward_data.wo, np.full(ward_data.values.shape, 0.25))
+    problem = Problem(flat, "ward", loss="l2")
+    rows, weights = stratified_rows(problem, 1500, seed=1)
+    cell = _cells_of(problem.geometry)
+    share = np.bincount(cell, minlength=BINS * BINS) * 1500 / flat.n
     drawn = np.bincount(cell[rows], minlength=BINS * BINS)
     assert np.max(np.abs(drawn - share)) <= 1.0 + 1e-9
-    # A uniform draw of the same size misses the shares by far more.
-    uniform = np.random.default_rng(5).choice(g.m, 2000, replace=False)
-    assert np.max(np.abs(np.bincount(cell[uniform], minlength=BINS * BINS) - share)) > 3
+    np.testing.assert_allclose(weights, 1.0, rtol=1e-12)
 
 
 def test_subproblem_keeps_weights_noise_and_fixed_of_the_rows(ward_data):
@@ -153,6 +185,8 @@ def test_subproblem_keeps_weights_noise_and_fixed_of_the_rows(ward_data):
     assert sub.data.n == 4 or sub.geometry.m == 4
     assert np.array_equal(sub.data.values, ward_data.values[index])
     assert np.array_equal(sub.user_weights, weights[index])
+    drawn = subproblem(problem, rows, np.array([1.0, 2.0, 0.5, 1.0]))
+    assert np.array_equal(drawn.user_weights, weights[index] * [1.0, 2.0, 0.5, 1.0])
     assert np.all(sub.noise_sigma == 3.0) and sub.fixed["alpha"] == 0.2
     assert sub.loss.name == "mixed" and sub.energy is None
 
@@ -230,7 +264,7 @@ def test_invalid_samples_are_left_out_of_the_subsample():
     wo[::4, 2] = -np.abs(wo[::4, 2])  # a quarter below the horizon
     below = Measurements(data.wi, wo, data.values)
     problem = Problem(below, "ward")
-    sub = subproblem(problem, stratified_rows(problem.geometry, 1500, seed=0))
-    assert sub.geometry.all_valid and sub.geometry.m == 1500
+    sub = subproblem(problem, *stratified_rows(problem, 1500, seed=0))
+    assert sub.geometry.all_valid and abs(sub.geometry.m - 1500) <= 1
     result = fit(below, "ward", loss="l2", **SMALL_SCHEDULE)
     assert "of the 4,500 samples" in result.message and result.converged
