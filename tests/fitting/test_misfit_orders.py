@@ -179,6 +179,19 @@ def test_the_keys_order_the_samples_by_their_angles(pairs):
         assert np.all(np.diff(second[order])[tied] >= -1e-12)
 
 
+def test_the_complex_sort_is_numpys_lexsort():
+    """Ties of the first key, of both keys (kept in the samples' order), negative
+    zeros and keys of every sign: the same order as ``np.lexsort``."""
+    rng = np.random.default_rng(3)
+    primary = rng.integers(-5, 5, 20_000) * 0.25
+    secondary = rng.integers(-3, 3, 20_000) * 0.5
+    primary[::7] = -0.0
+    for a, b in ((primary, secondary), (secondary, primary)):
+        assert np.array_equal(misfit._lexsort(a, b), np.lexsort((b, a)))
+    smooth = rng.random(5000)
+    assert np.array_equal(misfit._lexsort(smooth, -smooth), np.argsort(smooth))
+
+
 @pytest.mark.parametrize("p", [ALPHA, ALPHA / 2, ALPHA / 6, ALPHA / 62, 0.05, 0.5])
 def test_the_threshold_is_the_normal_upper_quantile(p):
     """The thresholds come from the standard library (scipy.stats is not imported with
