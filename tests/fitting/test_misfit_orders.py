@@ -126,6 +126,27 @@ def test_the_records_on_a_real_file_are_those_before():
         assert_equal(misfit_test(data, z, k, 5, True), reference(data, z, k, 5, True))
 
 
+@pytest.mark.parametrize("runs_samples", [1000, 1500, 3000])
+def test_more_samples_than_runs_samples_test_a_systematic_sample(monkeypatch, runs_samples):
+    """Of more than RUNS_SAMPLES samples the runs test takes one in k (the smallest k
+    that is enough): the record of the test on those samples, the reduced chi-square
+    on all of them, and a message that says so."""
+    data, z = cases()[1]
+    assert data.n > 1000
+    monkeypatch.setattr(misfit, "RUNS_SAMPLES", runs_samples)
+    step = -(-data.n // runs_samples)
+    keep = np.random.default_rng(4).uniform(size=data.n) > 0.2
+    got = misfit_test(data, z, keep, 5, True)
+    rows = np.arange(0, data.n, step)
+    want = reference(data.subset(rows), z[rows], keep[rows], 5, True)
+    full = reference(data, z, keep, 5, True)
+    for name in ("runs_ratio", "runs_z", "ordered_by"):
+        assert got[name] == want[name]
+    assert got["reduced_chi2"] == full["reduced_chi2"]
+    sample = f"on one in {step} of the {data.n:,} samples"
+    assert (sample in got["message"]) == (step > 1)
+
+
 def test_a_second_test_on_the_same_geometry_does_not_sort_again(monkeypatch):
     wi, wo = tied_pairs()
     data = brdffit.Measurements(wi, wo, np.ones((len(wi), 2)))
