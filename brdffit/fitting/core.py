@@ -169,15 +169,16 @@ def _check_signal(data: Measurements) -> None:
     or sigma at scales the least squares cannot carry (:data:`VALUE_RANGE`,
     :data:`SIGMA_RANGE`)."""
     values = np.asarray(data.values, dtype=float)
-    if not np.any(values > 0):
-        what = "0" if not np.any(values) else "0 or below"
+    high, low = float(values.max()), float(values.min())  # no temporaries (3.3 M on MERL)
+    if not high > 0:
+        what = "0" if high == low == 0 else "0 or below"
         raise DataError(
             f"the data have no signal to fit: all {values.size} values are {what}; a "
             "reflectance model needs values above 0 (check the file's value column and "
             "units)",
             "values",
         )
-    top = float(np.max(np.abs(values)))
+    top = max(high, -low)
     if not VALUE_RANGE[0] <= top <= VALUE_RANGE[1]:
         raise DataError(
             f"the largest value is {top:.3g}: fitting needs the largest |value| between "

@@ -189,7 +189,12 @@ class Problem:
         self.invalid_loss = 0.0
         if self.invalid_y is not None and self.invalid_y.size:
             self.invalid_loss = self._invalid_contribution(y_all, sigma, w, valid, noise)
-        self.w_lin, self.z_lin = compact_weights(*self.loss.linearised(self.y, self.ctx))
+        if self.loss.name == "l2":  # t(f) = f: the weights are the user's, the target y
+            u = self.ctx.weights
+            self.w_lin = None if u is None or np.all(u == 1.0) else u
+            self.z_lin = self.y
+        else:
+            self.w_lin, self.z_lin = compact_weights(*self.loss.linearised(self.y, self.ctx))
         # For quadratic losses the target never changes: W y and y'Wy are reused
         # by every evaluation of a model without an offset.
         self._weighted = weighted_target(self.z_lin, self.w_lin) if self.loss.linear else None

@@ -99,3 +99,20 @@ def test_sums_of_lobes_keep_their_components_coefficient_bounds_and_rows():
     assert sol.loss < BAD_LOSS and 0 <= kd <= 1 and 0 <= rs <= 1
     assert rd_eff + rs <= 1 + 1e-12
     assert rd_eff + rs > 1 - 1e-6  # the bright data hold them on the row
+
+
+@pytest.mark.parametrize("weights", [None, "uniform", "varying"])
+def test_the_l2_targets_are_those_of_its_linearisation(weights):
+    """The l2 loss's weights and targets, taken as they are (t(f) = f), equal those
+    of the generic Gauss-Newton linearisation."""
+    from brdffit.fitting.solve import compact_weights
+
+    ward_data = make_data("ward", {"kd": 0.1, "ks": 0.3, "alpha": 0.12}, n=800, seed=1)
+    u = {None: None, "uniform": np.full(ward_data.n, 2.0),
+         "varying": np.linspace(0.5, 2.0, ward_data.n)}[weights]  # fmt: skip
+    problem = Problem(ward_data, "ward", loss="l2", weights=u)
+    w, z = compact_weights(*problem.loss.linearised(problem.y, problem.ctx))
+    assert (problem.w_lin is None) == (w is None) == (weights != "varying")
+    if w is not None:
+        np.testing.assert_array_equal(problem.w_lin, w)
+    np.testing.assert_array_equal(problem.z_lin, z)
