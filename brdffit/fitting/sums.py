@@ -93,15 +93,20 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
                                     per_value(ctx.sigma), per_value(ctx.noise_sigma))  # fmt: skip
     totals = dict(zip(loops_sums.NAMES, linear.tolist()))
     totals.update(log=0.0, cbrt=0.0)
-    fc, yc = np.empty((2, y.shape[1], BLOCK))
+    buffers = np.empty((4, y.shape[1], BLOCK))
     for start in range(0, len(y), BLOCK):
         size = min(BLOCK, len(y) - start)
-        f_block, y_block = fc[:, :size], yc[:, :size]
-        loops_sums.project(pred, y, cos, start, f_block, y_block)
+        fc, yc, f_log, y_log = buffers[:, :, :size]
+        loops_sums.project(pred, y, cos, start, fc, yc, f_log, y_log)
         weights = None if w is None else w[start : start + size]
-        projected = {"f": f_block, "y": y_block}
-        totals["cbrt"] += _row_squares(_cbrt_difference(projected), weights)
-        totals["log"] += _row_squares(_log_difference(projected), weights)
+        # ln(max(1 + f cos, 1e-12)) - ln(max(1 + y cos, 1e-12)) and the cube roots'
+        # difference, in place (the formulas of _log_difference and _cbrt_difference)
+        np.log(f_log, out=f_log)
+        totals["log"] += _row_squares(
+            np.subtract(f_log, np.log(y_log, out=y_log), out=f_log), weights
+        )
+        np.cbrt(fc, out=fc)
+        totals["cbrt"] += _row_squares(np.subtract(fc, np.cbrt(yc, out=yc), out=fc), weights)
     return {name: totals[name] for name in [*names, "rss"]}
 
 

@@ -75,12 +75,16 @@ def linear_sums(f, y, cos, w, scale, sigma, noise):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def project(f, y, cos, start, fc, yc):
+def project(f, y, cos, start, fc, yc, f_log, y_log):
     """``f cos`` and ``y cos`` of the samples ``start`` on, channel by channel: rows
-    of ``fc`` and ``yc`` (C, B), contiguous for numpy's vectorised ``log`` and
-    ``cbrt``."""
+    of ``fc`` and ``yc`` (C, B), contiguous for numpy's vectorised ``cbrt``; and the
+    arguments of the log loss's logarithms, ``max(1 + f cos, 1e-12)`` and likewise
+    for ``y``, in ``f_log`` and ``y_log``."""
     c, size = fc.shape
     for k in range(c):
         for j in range(size):
-            fc[k, j] = f[start + j, k] * cos[start + j]
-            yc[k, j] = y[start + j, k] * cos[start + j]
+            a = f[start + j, k] * cos[start + j]
+            b = y[start + j, k] * cos[start + j]
+            fc[k, j], yc[k, j] = a, b
+            f_log[k, j] = max(1.0 + a, 1e-12)
+            y_log[k, j] = max(1.0 + b, 1e-12)
