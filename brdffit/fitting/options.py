@@ -99,7 +99,9 @@ class FitOptions:
         Samples above the horizon above which the coarse-to-fine schedule runs
         (>= 0; :mod:`brdffit.fitting.schedule`): the global stage and the polishes
         on a seeded subsample of ``coarse_samples`` samples stratified over
-        ``(theta_h, theta_d)``, then one polish on all the samples, whose minimum
+        ``(theta_h, theta_d)`` (half in proportion, half by Neyman's allocation on
+        the spread of the loss's targets, weighted by the inverse of each sample's
+        probability of being drawn), then one polish on all the samples, whose minimum
         the answer is; the result's message says so. At or below it the fit runs
         as without the schedule (every polish on all the samples; the global
         stage scouts a uniform 20,000 of more than 20,000 samples).
