@@ -50,3 +50,16 @@ def test_they_load_where_needed():
     )
     loaded = _loaded(code)
     assert "scipy.special" in loaded and "emcee" in loaded
+
+
+def test_a_fit_of_many_channels_on_few_pairs_loads_none_of_them():
+    """The compiled kernels (numba) come from MIN_PAIRS direction pairs on, not values:
+    3,000 pairs of 8 channels (24,000 values) fit as a small fit does."""
+    code = (
+        "import brdffit\n"
+        "d = brdffit.synthesize('ward', {'kd': [0.1] * 8, 'ks': [0.3] * 8, 'alpha': 0.2},"
+        " geometry='hemisphere', n=3000, noise=0.01, seed=1)\n"
+        "assert d.values.size > brdffit.kernels.MIN_PAIRS > d.n\n"
+        "assert brdffit.fit(d, 'ward').converged"
+    )
+    assert _loaded(code) == []
