@@ -17,7 +17,7 @@ The subsample is stratified over the cells of a 32 x 32 grid over
 ``(theta_h, theta_d)`` in [0, pi/2]^2, and allocated half in proportion to each
 cell's samples and half by Neyman's allocation (in proportion to its samples times
 the spread of its targets as the loss sees them, ``t(y)``: Cochran 1977, "Sampling
-Techniques", 3rd ed., Wiley, secs. 5.5-5.6), each sample weighted by the inverse of
+Techniques", 3rd ed., Wiley, sec. 5.5), each sample weighted by the inverse of
 its probability of being drawn. The subsample's (weighted) loss is an unbiased
 estimate of the full loss. Neyman's allocation minimises the variance of such an
 estimate of a total of ``t(y)`` for a given size; the residuals of a fit are largest
@@ -26,7 +26,8 @@ whose cells have a hundred-fold spread), so the estimate of the loss improves th
 too, the subsample's optimum lies closer to the full one, and the polish on
 all the data needs fewer evaluations (measured on a MERL file, seeds 0-2, against a
 proportional draw: blinn 7-9 -> 4-6, ward 17-21 -> 7-11, ggx 16-20 -> 12-25,
-cook_torrance 29-42 -> 12-26; 242 -> 161 in all; see benchmarks/README.md).
+cook_torrance 29-42 -> 12-26; 242 -> 161 in all, with the polish's first steps of
+0.01 of each range; see :data:`FINE_STEP` and benchmarks/README.md).
 The half in proportion keeps every cell in the subsample
 (a spread estimated as 0 does not empty a cell).
 """
@@ -131,7 +132,7 @@ def _allocate(size: int, share: np.ndarray, counts: np.ndarray) -> np.ndarray:
 
 def _draw(geometry, targets, size: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Systematic sampling with unequal probabilities of the pairs ordered by cell
-    (Cochran 1977, sec. 8.6 and 9A.6: every pair gets its cell's inclusion
+    (Cochran 1977, sec. 8.6 and ch. 9A: every pair gets its cell's inclusion
     probability ``p_h = a_h / N_h``, at most 1; the picks are where the running sum of
     the probabilities passes a random start plus 0, 1, 2, ...): each cell gets its
     allocation ``a_h`` within one pair, spread over the data's own order within it."""
