@@ -11,8 +11,9 @@ fallback when numba is not installed or the kernels are switched off:
 
 - by default they run on geometries of at least :data:`MIN_PAIRS` direction pairs:
   below that a fit is short anyway, and importing numba and loading the compiled
-  loops (about 0.35 s of CPU, measured) would cost a small fit more than it saves,
-  so small fits run exactly as without numba (and never import it);
+  loops (0.5 s of CPU, ``benchmarks/bench_cold_start.py --first-fit``) would cost a
+  small fit more than it saves, so small fits run exactly as without numba (and
+  never import it);
 - the environment variable ``BRDFFIT_KERNELS=0`` switches them off for a process,
   ``BRDFFIT_KERNELS=1`` on for every size;
 - ``with brdffit.kernels.use(False):`` (or ``use(True)``) does the same for a block
