@@ -62,7 +62,7 @@ def loss_sums(pred: np.ndarray, ctx: LossContext) -> dict:
     per_sample = [f.name for f in fields(LossContext)
                   if isinstance(getattr(ctx, f.name), np.ndarray)
                   and getattr(ctx, f.name).shape[:1] == y.shape[:1]]  # fmt: skip
-    if kernels.wanted(len(y)):  # samples, as the models count pairs (not values)
+    if kernels.wanted(len(y), modules=("loops_sums",)):  # samples, as models count pairs
         return _compiled(pred, y, ctx, names)
     totals = dict.fromkeys([*names, "rss"], 0.0)
     for start in range(0, len(y), BLOCK):

@@ -11,8 +11,9 @@ fallback when numba is not installed or the kernels are switched off:
 
 - by default they run on geometries of at least :data:`MIN_PAIRS` direction pairs:
   below that a fit is short anyway, and importing numba and loading the compiled
-  loops (about 0.35 s of CPU, measured) would cost a small fit more than it saves,
-  so small fits run exactly as without numba (and never import it);
+  loops (0.5 s of CPU, ``benchmarks/bench_cold_start.py --first-fit``) would cost a
+  small fit more than it saves, so small fits run exactly as without numba (and
+  never import it);
 - the environment variable ``BRDFFIT_KERNELS=0`` switches them off for a process,
   ``BRDFFIT_KERNELS=1`` on for every size;
 - ``with brdffit.kernels.use(False):`` (or ``use(True)``) does the same for a block
@@ -24,6 +25,7 @@ The loops are compiled on first use and cached on disk (numba's ``cache=True``).
 from __future__ import annotations
 
 import contextlib
+import importlib
 import importlib.util
 import os
 import warnings
@@ -51,39 +53,38 @@ def enabled() -> bool:
     return _AVAILABLE and _state["on"] is not False
 
 
-def wanted(pairs: int, minimum: int = MIN_PAIRS) -> bool:
+def wanted(pairs: int, minimum: int = MIN_PAIRS, modules: tuple = ("loops",)) -> bool:
     """Whether to use the compiled kernels on a geometry of ``pairs`` valid pairs
-    (by default from ``minimum`` pairs on: :data:`MIN_PAIRS`, or a model's own)."""
+    (by default from ``minimum`` pairs on: :data:`MIN_PAIRS`, or a model's own) with
+    the loops of ``modules`` (modules of this package, imported here on first use)."""
     if not (_AVAILABLE and pairs > 0) or _state["on"] is False:
         return False
-    return (_state["on"] is True or pairs >= minimum) and _loaded()
+    return (_state["on"] is True or pairs >= minimum) and all(_loaded(m) for m in modules)
 
 
-def _loaded() -> bool:
-    """Import the loops (and numba) once; if that fails (a numba that does not support
-    the installed numpy, say), warn once and run the numpy formulas from then on."""
-    if "loaded" not in _state:
+def _loaded(module: str) -> bool:
+    """Import the loop module ``module`` (and numba) once; if that fails (a numba that
+    does not support the installed numpy, say), warn once and run the numpy formulas
+    of the models that need it from then on.
+
+    Only the modules a model needs are imported: a ward fit imported all six, the
+    five it does not use 18-20 ms of CPU from source (benchmarks/README.md, "The
+    first compiled fit in a process")."""
+    loaded = _state.setdefault("loaded", {})
+    if module not in loaded:
         try:
-            from . import (  # noqa: F401
-                loops,
-                loops_empirical,
-                loops_he,
-                loops_microfacet,
-                loops_renderers,
-                loops_sums,
-                plastic_table,
-            )
+            importlib.import_module(f".{module}", __name__)
         except Exception as exc:  # ImportError, or numba's own errors on import
             warnings.warn(
                 f"brdffit's compiled kernels are off: importing them failed ({exc}); "
                 "the numpy formulas run instead",
                 RuntimeWarning,
-                stacklevel=3,
+                stacklevel=4,
             )
-            _state["loaded"] = False
+            loaded[module] = False
         else:
-            _state["loaded"] = True
-    return _state["loaded"]
+            loaded[module] = True
+    return loaded[module]
 
 
 @contextlib.contextmanager
@@ -103,7 +104,7 @@ def install(registry) -> None:
 
     Each such model's ``design`` becomes a :class:`~brdffit.kernels.bind.CompiledDesign`
     wrapping the numpy design (once: installing twice changes nothing)."""
-    from .bind import SPECS, CompiledDesign
+    from .bind import MODULES, SPECS, CompiledDesign
 
     for name, compiled in SPECS.items():
         model = registry.get(name)
@@ -111,7 +112,9 @@ def install(registry) -> None:
             continue
         # Model is a frozen dataclass: its design is replaced as its __post_init__ sets
         # its own fields.
-        object.__setattr__(model, "design", CompiledDesign(model.design, compiled, wanted))
+        object.__setattr__(
+            model, "design", CompiledDesign(model.design, compiled, wanted, MODULES[name])
+        )
 
 
 COMPILED_MODELS = (

@@ -23,7 +23,7 @@ from . import inputs
 from .bind_renderers import SPECS as _RENDERER_SPECS
 from .inputs_empirical import LOBES as EMPIRICAL_LOBES
 
-__all__ = ["CompiledDesign", "SPECS"]
+__all__ = ["CompiledDesign", "MODULES", "SPECS"]
 
 
 def _loops(module: str = "loops"):
@@ -157,16 +157,34 @@ SPECS = {
 SPECS.update(_RENDERER_SPECS)
 
 
+def _modules(name: str) -> tuple:
+    """The loop modules the compiled form of model ``name`` imports."""
+    spec = SPECS[name]
+    if isinstance(spec, _Lobe):
+        return (spec.loops,)
+    if name == "mitsuba_roughplastic":
+        return ("loops_renderers", "plastic_table")
+    return ("loops_renderers",) if name in _RENDERER_SPECS else ("loops",)
+
+
+#: Model name -> the loop modules its compiled form needs: only these are imported
+#: (:func:`brdffit.kernels.wanted`) when it is first used.
+MODULES = {name: _modules(name) for name in SPECS}
+
+
 class CompiledDesign:
     """A model's design function computed by its compiled loop when the kernels are
     wanted for the geometry, else by ``reference`` (the numpy design it replaces)."""
 
-    def __init__(self, reference: Callable, compiled, wanted: Callable[[int], bool]):
+    def __init__(
+        self, reference: Callable, compiled, wanted: Callable[..., bool], modules=("loops",)
+    ):
         self.reference, self.compiled, self._wanted = reference, compiled, wanted
+        self.modules = modules
         self.__doc__ = getattr(reference, "__doc__", None)
 
     def __call__(self, geometry, shape: Mapping) -> Design:
-        if not self._wanted(geometry.m):
+        if not self._wanted(geometry.m, modules=self.modules):
             return self.reference(geometry, shape)
         if all(np.ndim(value) == 0 for value in shape.values()):
             return self.compiled.design(geometry, shape)
@@ -200,8 +218,11 @@ class CompiledDesign:
         """The BRDF on the valid pairs in one compiled pass, or None when the kernels
         are off or a coefficient is given per channel to a model whose compiled form
         takes one value each (then the caller combines the design's columns)."""
-        if not self._wanted(geometry.m):
+        if not self._wanted(geometry.m, modules=self.modules):
             return None
-        if any(np.ndim(c) for c in coefs) and not getattr(self.compiled, "by_channel", False):
+        if any(np.ndim(c) for c in coefs) and not (
+            getattr(self.compiled, "by_channel", False)
+            and self._wanted(geometry.m, modules=("loops",))  # affine_by_channel's module
+        ):
             return None
         return self.compiled.evaluate(geometry, shape, coefs)

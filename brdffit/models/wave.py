@@ -154,7 +154,11 @@ def _he_design(geometry: Geometry, shape) -> Design:
     from .. import kernels
 
     scalar = all(np.ndim(v) == 0 for k, v in shape.items() if k != "wavelength")
-    if scalar and np.ndim(shape["wavelength"]) <= 1 and kernels.wanted(geometry.m, 1):
+    if (
+        scalar
+        and np.ndim(shape["wavelength"]) <= 1
+        and kernels.wanted(geometry.m, 1, ("loops_he",))
+    ):
         from ..kernels.loops_he import he_offset
 
         return Design((INV_PI,), offset=he_offset(geometry, shape, SERIES_TOLERANCE))

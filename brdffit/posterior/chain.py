@@ -192,11 +192,11 @@ MOVE_WEIGHTS = (0.75, 0.25, 0.0)
 
 
 def _emcee():
-    """emcee, imported on the first posterior: it imports scipy.stats (0.3 s), which
-    a fit without a posterior does not need."""
-    import emcee
+    """emcee, imported on the first posterior (a fit without one does not need it), and
+    without the scipy.stats it would import (:mod:`brdffit.posterior.emcee_import`)."""
+    from .emcee_import import import_emcee
 
-    return emcee
+    return import_emcee()
 
 
 def _moves(proposal):

@@ -174,11 +174,18 @@ def test_the_named_models_are_those_with_a_kernel():
 
 @pytest.mark.parametrize("name", kernels.COMPILED_MODELS)
 def test_every_named_model_is_bound_to_its_kernel(name):
-    from brdffit.kernels.bind import CompiledDesign
+    from brdffit.kernels.bind import MODULES, CompiledDesign
 
     design = get_model(name).design
     assert isinstance(design, CompiledDesign)
     assert not isinstance(design.reference, CompiledDesign)
+    # the loop modules it imports on first use (kernels.wanted) exist and hold its loop
+    assert design.modules == MODULES[name] and design.modules
+    for module in design.modules:
+        assert kernels.wanted(10**6, modules=(module,))
+    loop = getattr(design.compiled, "loop", None)
+    if loop is not None:
+        assert hasattr(sys.modules[f"brdffit.kernels.{design.modules[0]}"], loop)
 
 
 def _relative(got, expected) -> float:
