@@ -267,7 +267,10 @@ def _result(
     n_params = problem.dim + len(problem.free_coefs) * problem.n_channels
     pred = problem.predict(params)  # held while exact_loss shares it (Problem.predict)
     metrics = metrics_of(pred, y, ctx, n_params)
-    loss = problem.exact_loss(params)
+    # The l2 loss without weights is the l2 metric (the same sum over every value, the
+    # pairs below the horizon predicted 0): not summed a second time (3.3 M on MERL).
+    unweighted_l2 = problem.loss.name == "l2" and problem.user_weights is None
+    loss = metrics["l2"] if unweighted_l2 else problem.exact_loss(params)
     converged = code in CONVERGED and found.best.loss < BAD_LOSS and not found.stopped
     at_bounds = _at_bounds(problem, found.best_x if problem.dim else (), params)
     deadline = None if opts.timeout is None else (perf_counter() - seconds) + opts.timeout

@@ -270,3 +270,18 @@ def test_sum_with_a_shared_diffuse_term_reorders_only_the_lobes():
     assert result.params["blinn_1.ks"] == pytest.approx(1.5, rel=0.01)
     assert result.params["blinn_2.n"] == pytest.approx(2000.0, rel=0.01)
     assert result.params["blinn_1.kd"] == pytest.approx(0.2, rel=0.01)  # stays the diffuse term
+
+
+def test_the_l2_loss_is_its_exact_value_below_the_horizon_too():
+    """An unweighted l2 fit reports its l2 metric as its loss: the exact loss of the
+    problem (valid pairs, plus those below the horizon at 0), to rounding."""
+    from brdffit.fitting.problem import Problem
+
+    data = make_data("ward", {"kd": 0.1, "ks": 0.3, "alpha": 0.12}, n=900, seed=4)
+    wo = np.array(data.wo)
+    wo[::5, 2] = -np.abs(wo[::5, 2])
+    below = brdffit.Measurements(data.wi, wo, data.values)
+    result = fit(below, "ward", loss="l2")
+    exact = Problem(below, "ward", loss="l2").exact_loss(dict(result.params))
+    assert result.loss == result.metrics["l2"]
+    assert result.loss == pytest.approx(exact, rel=1e-13)
