@@ -18,9 +18,11 @@ measured in benchmarks/README.md):
   Beckmann loop's reciprocal one (:func:`rsqrt`, :func:`reciprocal_short`: the
   float32 estimate is within 3e-7, one step within :data:`SHORT_NEWTON_ERROR`,
   2e-13, tested; measured 1.1e-13 and 3e-14 on the machine of ``benchmarks/``),
-  far below the 1e-11 to which the tests hold these loops to the numpy models;
-  measured: anisotropic GGX 1.33x for the first form, then 1.2-1.45x for one step
-  instead of two; anisotropic Beckmann 1.3-1.6x with the next two changes;
+  far below the 1e-11 to which the tests hold these loops to the numpy models.
+  Measured, each beside the loop before it in one process: anisotropic GGX 1.33x
+  for the first form, then 1.2-1.45x for one step instead of two (its last
+  division kept: two one-step reciprocals in its place were slower); anisotropic
+  Beckmann 1.3-1.6x for one step, the ``exp`` below and its float32 inputs;
 - ``exp`` is :func:`~brdffit.kernels.elementary.fast_exp_short` (same accuracy,
   fewer operations than :func:`~brdffit.kernels._compile.fast_exp`): the Beckmann
   loop 1.2x;
