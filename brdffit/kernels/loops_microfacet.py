@@ -1,9 +1,9 @@
 """The compiled loops of the Beckmann models and of anisotropic GGX.
 
 As those of :mod:`brdffit.kernels.loops` (``out[i] = b + a * lobe_i``, positive
-factors of an exponential added to its exponent), with four changes that bring
-these loops to the speed of Mitsuba 3's LLVM backend on one thread (issue 13,
-measured in benchmarks/README.md; anisotropic Beckmann still below it):
+factors of an exponential added to its exponent), with five changes that bring
+these loops to about the speed of Mitsuba 3's LLVM backend on one thread (issue 13,
+measured in benchmarks/README.md):
 
 - Beckmann's Smith ``G1`` is the degree-(6, 6) rational function of
   :mod:`brdffit.kernels.smith` (within 2e-8 of the exact one; the numpy models use
@@ -12,17 +12,28 @@ measured in benchmarks/README.md; anisotropic Beckmann still below it):
 - square roots and the Beckmann loops' one division are not taken by the divider
   (whose throughput, a few doubles every several cycles, limited these loops), but
   as ``x / sqrt(x)`` with ``1 / sqrt(x)`` (and ``1 / x``) from a float32 estimate
-  refined by two Newton steps in float64, ``r <- r (3/2 - x r^2 / 2)`` (``r <- r (2 -
-  x r)``), each of which squares the relative error (2^-22 after the float32
-  estimate, below 1e-28 after two steps: the result is within a few ulps of the
-  correctly rounded one, tested); measured: the anisotropic GGX loop 1.33x, the
-  Beckmann loop 1.08x;
+  refined by Newton steps in float64, ``r <- r (3/2 - x r^2 / 2)`` (``r <- r (2 -
+  x r)``), each of which squares the relative error: the isotropic Beckmann loop's
+  reciprocal takes two steps (within a few ulps), the roots and the anisotropic
+  Beckmann loop's reciprocal one (:func:`rsqrt`, :func:`reciprocal_short`: the
+  float32 estimate is within 3e-7, one step within :data:`SHORT_NEWTON_ERROR`,
+  2e-13, tested; measured 1.1e-13 and 3e-14 on the machine of ``benchmarks/``),
+  far below the 1e-11 to which the tests hold these loops to the numpy models.
+  Measured, each beside the loop before it in one process: anisotropic GGX 1.33x
+  for the first form, then 1.2-1.45x for one step instead of two (its last
+  division kept: two one-step reciprocals in its place were slower); anisotropic
+  Beckmann 1.3-1.6x for one step, the ``exp`` below and its float32 inputs;
+- ``exp`` is :func:`~brdffit.kernels.elementary.fast_exp_short` (same accuracy,
+  fewer operations than :func:`~brdffit.kernels._compile.fast_exp`): the Beckmann
+  loop 1.2x;
 - on processors with AVX-512 the loops are compiled with eight doubles to a vector
   (:func:`wide`): LLVM's default for them is four;
-- the Beckmann and anisotropic GGX loops read the inputs that tolerate it in
-  float32 (:func:`brdffit.kernels.inputs.beckmann_inputs` and
-  :func:`~brdffit.kernels.inputs.ggx_anisotropic_inputs` state and bound the error:
-  2e-7 relative, tested), which cuts their memory traffic by a quarter to a third.
+- the loops read the inputs that tolerate it in float32
+  (:func:`brdffit.kernels.inputs.beckmann_inputs`,
+  :func:`~brdffit.kernels.inputs.ggx_anisotropic_inputs` and
+  :func:`~brdffit.kernels.inputs.beckmann_anisotropic_inputs` state and bound the
+  error: 2e-7 relative, tested), which cuts their memory traffic by a quarter to a
+  third.
 
 The formulas, those of the numpy models (:mod:`brdffit.models.renderers`): GGX and
 Beckmann ``D`` with the separable Smith masking (Walter, Marschner, Li and
@@ -41,15 +52,26 @@ import llvmlite.binding as llvm
 import numba
 import numpy as np
 
-from ._compile import FLAGS, fast_exp, jit
+from ._compile import FLAGS, jit
+from .elementary import fast_exp_short
 from .smith import A_MAX, P, Q
 
-__all__ = ["beckmann", "beckmann_anisotropic", "ggx_anisotropic", "rsqrt", "wide"]
+__all__ = [
+    "SHORT_NEWTON_ERROR",
+    "beckmann",
+    "beckmann_anisotropic",
+    "ggx_anisotropic",
+    "reciprocal_short",
+    "rsqrt",
+    "wide",
+]
 
 _INV_PI = 1.0 / math.pi
-#: The bounds of :func:`rsqrt`'s argument: float32 holds them times 2^-64.
-RSQRT_MIN, RSQRT_MAX = 1e-18, 1e48
-_TWO_M64, _TWO_M32 = 2.0**-64, 2.0**-32
+#: The bounds of :func:`rsqrt`'s argument: float32 holds them and their roots.
+RSQRT_MIN, RSQRT_MAX = 1e-30, 1e30
+#: The stated bound on the relative error of :func:`rsqrt` and
+#: :func:`reciprocal_short` (one Newton step from a float32 estimate; tested).
+SHORT_NEWTON_ERROR = 2e-13
 _LOCK = threading.Lock()
 
 
@@ -86,12 +108,10 @@ def wide(dispatcher):
 @numba.njit(inline="always", fastmath=FLAGS)
 def rsqrt(x):
     """``1 / sqrt(x)`` for ``RSQRT_MIN <= x <= RSQRT_MAX`` without the divider: a
-    float32 estimate (of ``x 2^-64``, scaled back by ``2^-32``: exact) and two Newton
-    steps in float64 (see the module docstring)."""
-    r = np.float64(np.float32(1.0) / math.sqrt(np.float32(x * _TWO_M64))) * _TWO_M32
-    h = 0.5 * x
-    r = r * (1.5 - h * r * r)
-    return r * (1.5 - h * r * r)
+    float32 estimate (within 3e-7) and one Newton step in float64, within
+    :data:`SHORT_NEWTON_ERROR` relative (see the module docstring)."""
+    r = np.float64(np.float32(1.0) / math.sqrt(np.float32(x)))
+    return r * (1.5 - 0.5 * x * r * r)
 
 
 @numba.njit(inline="always", fastmath=FLAGS)
@@ -102,6 +122,14 @@ def _reciprocal(x):
     denominators, which lie in [0.03, 13] (tests/models/test_kernels.py)."""
     r = np.float64(np.float32(1.0) / np.float32(x))
     r = r * (2.0 - x * r)
+    return r * (2.0 - x * r)
+
+
+@numba.njit(inline="always", fastmath=FLAGS)
+def reciprocal_short(x):
+    """``1 / x`` for ``1e-30 <= x <= 1e30`` as :func:`_reciprocal` with one Newton step,
+    within :data:`SHORT_NEWTON_ERROR` relative (the anisotropic loops)."""
+    r = np.float64(np.float32(1.0) / np.float32(x))
     return r * (2.0 - x * r)
 
 
@@ -139,7 +167,7 @@ def beckmann(tan2_h, cot_i, cot_o, log_factor, weight, alpha2, f0, a, b, out):
         fresnel = f0 + (1.0 - f0) * weight[i]
         n_i, d_i = _beckmann_g1_terms(min(cot_i[i] * inv_alpha, A_MAX))
         n_o, d_o = _beckmann_g1_terms(min(cot_o[i] * inv_alpha, A_MAX))
-        lobe = fast_exp(log_scale + log_factor[i] - tan2_h[i] * inv_a2)
+        lobe = fast_exp_short(log_scale + log_factor[i] - tan2_h[i] * inv_a2)
         out[i] = b + fresnel * lobe * (n_i * n_o) * _reciprocal(d_i * d_o)
     return out
 
@@ -152,8 +180,10 @@ def beckmann_anisotropic(
     """Anisotropic Beckmann (Heitz 2014, section 5.4): ``D = exp(-(tan2_t/alpha_u^2 +
     tan2_b/alpha_v^2)) / (pi alpha_u alpha_v (N.H)^4)`` and the Smith ``G1`` of
     :func:`beckmann` at ``a = 1 / sqrt(alpha_u^2 tx + alpha_v^2 ty)`` (clamped to
-    ``A_MAX`` by clamping ``alpha^2 tan^2`` to ``1/A_MAX^2`` first); ``log_factor``
-    as in :func:`beckmann`."""
+    ``A_MAX`` by clamping ``alpha^2 tan^2`` to ``1/A_MAX^2`` first: ``rsqrt``'s
+    error may take it 2e-13 past, where the rational function is as accurate);
+    ``log_factor`` as in :func:`beckmann`. The cached ``tx``, ``ty`` and ``weight``
+    are float32."""
     if a <= 0.0:
         out[:] = b
         return out
@@ -162,13 +192,13 @@ def beckmann_anisotropic(
     log_scale = math.log(a * _INV_PI / (alpha_u * alpha_v))
     s_min = 1.0 / (A_MAX * A_MAX)
     for i in range(out.shape[0]):
-        s_i = min(max(u2 * tx_i[i] + v2 * ty_i[i], s_min), RSQRT_MAX)  # at most 1e20
+        s_i = min(max(u2 * tx_i[i] + v2 * ty_i[i], s_min), RSQRT_MAX)  # at most 2e20
         s_o = min(max(u2 * tx_o[i] + v2 * ty_o[i], s_min), RSQRT_MAX)
-        n_i, d_i = _beckmann_g1_terms(min(rsqrt(s_i), A_MAX))
-        n_o, d_o = _beckmann_g1_terms(min(rsqrt(s_o), A_MAX))
         fresnel = f0 + (1.0 - f0) * weight[i]
         exponent = log_scale + log_factor[i] - (tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2)
-        out[i] = b + fresnel * fast_exp(exponent) * (n_i * n_o) * _reciprocal(d_i * d_o)
+        n_i, d_i = _beckmann_g1_terms(rsqrt(s_i))  # at most A_MAX (1 + 2e-13)
+        n_o, d_o = _beckmann_g1_terms(rsqrt(s_o))
+        out[i] = b + fresnel * fast_exp_short(exponent) * (n_i * n_o) * reciprocal_short(d_i * d_o)
     return out
 
 

@@ -256,7 +256,7 @@ _FLOAT32 = (
     "inputs in float32: within 2e-7 relative of the float64 form "
     "(brdffit.kernels.inputs).\n"
 )
-_FLOAT32_NOTE = {"beckmann": _FLOAT32, "ggx_anisotropic": _FLOAT32}
+_FLOAT32_NOTE = dict.fromkeys(("beckmann", "ggx_anisotropic", "beckmann_anisotropic"), _FLOAT32)
 
 
 def _anisotropic_model(distribution: str) -> Model:

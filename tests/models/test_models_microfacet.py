@@ -173,6 +173,7 @@ TOLERANCE = {
 FLOAT32_ERROR = {
     "beckmann": inputs.BECKMANN_F32_ERROR,
     "ggx_anisotropic": inputs.GGX_ANISOTROPIC_F32_ERROR,
+    "beckmann_anisotropic": inputs.BECKMANN_ANISOTROPIC_F32_ERROR,
 }
 
 
