@@ -157,7 +157,13 @@ def _sigma(ctx):
 def _divided_by(scale: Callable[[LossContext], np.ndarray]):
     """The transform ``t(f) = f / s`` and its derivative ``1 / s``, ``s = scale(ctx)``
     (the losses that weight each value by a fixed scale: relative, chi2, mixed)."""
-    return (lambda f, ctx: f / scale(ctx), lambda f, ctx: np.ones_like(f) / scale(ctx))
+    return (lambda f, ctx: f / scale(ctx), lambda f, ctx: _inverse(scale(ctx), f))
+
+
+def _inverse(s: np.ndarray, f) -> np.ndarray:
+    """``1 / s`` in the shape of ``ones_like(f) / s``, without the array of ones (a
+    MERL file's mixed loss forms this for 3.3 M values at every reweighting)."""
+    return np.broadcast_to(1.0 / s, np.broadcast_shapes(np.shape(f), np.shape(s)))
 
 
 LOSSES: dict[str, Loss] = {
