@@ -135,16 +135,7 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     ur2 = u * r2
     relative_c = max(_dot(ur2, 1.0 / np.maximum(gn, 1e-300)), 1e-300)
 
-    def profile(log_rho: float) -> tuple[float, float]:
-        """(-log-likelihood per unit weight, c) at ratio 10**log_rho."""
-        if log_rho >= 15.0:  # the pure relative form, with the floor
-            c, v = relative_c, gn
-        else:
-            v = 1.0 + 10.0**log_rho * gn
-            c = max(_dot(ur2, 1.0 / v), 1e-300)
-        s = np.maximum(c * v, p_min)
-        return _dot(u, np.log(s)) + _dot(ur2, 1.0 / s), c
-
+    profile = _profile(u, ur2, gn, relative_c, p_min)
     grid = np.linspace(-12.0, 12.0, GRID)
     values = [profile(x)[0] for x in grid]
     i = int(np.argmin(values))
@@ -158,6 +149,34 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
         return NoiseModel(math.sqrt(p_min), math.sqrt(c / g_scale))
     rho = 10.0 ** best[1]
     return NoiseModel(math.sqrt(max(c, p_min)), math.sqrt(c * rho / g_scale))
+
+
+def _profile(u, ur2, gn, relative_c: float, p_min: float):
+    """The profile of :func:`estimate`: ``log_rho -> (-log-likelihood per unit weight,
+    c)``. Its values are those of the formulas written out (``v = 1 + rho g``,
+    ``c = sum u r^2 / v``, ``s = max(c v, p_min)``, ``sum u ln s + sum u r^2 / s``): the
+    same operations on the same values, in two buffers reused by every call instead
+    of seven new arrays (each of them a fresh mapping of 2.4 MB to fault in: the
+    estimate's ~35 calls took 0.2 s on a MERL file's 300,000 values)."""
+    v, t = np.empty_like(gn), np.empty_like(gn)
+
+    def total(a, b) -> float:  # _dot(a, b) with b in t: sum(a * b), t overwritten
+        np.multiply(a, b, out=t)
+        return float(np.sum(t))
+
+    def profile(log_rho: float) -> tuple[float, float]:
+        if log_rho >= 15.0:  # the pure relative form, with the floor
+            c = relative_c
+            np.multiply(gn, c, out=v)
+        else:
+            np.multiply(gn, 10.0**log_rho, out=v)
+            np.add(v, 1.0, out=v)
+            c = max(total(ur2, np.divide(1.0, v, out=t)), 1e-300)
+            np.multiply(v, c, out=v)
+        s = np.maximum(v, p_min, out=v)
+        return total(u, np.log(s, out=t)) + total(ur2, np.divide(1.0, s, out=t)), c
+
+    return profile
 
 
 def _thinned(*arrays):

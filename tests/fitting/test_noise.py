@@ -183,3 +183,31 @@ def test_the_systematic_sample_is_read_without_the_full_residuals(
     if weighted:
         w[3] = 0.0
         assert noise_module._systematic_sample(y, f, valid, w) is None
+
+
+def test_the_profile_in_reused_buffers_is_the_formulas_written_out():
+    """The estimate's profile (two buffers reused by every call) gives exactly the
+    values of its formulas with new arrays, at every ratio, called in any order."""
+    from brdffit.fitting.noise import _profile
+
+    rng = np.random.default_rng(12)
+    gn = rng.uniform(0.0, 4.0, 5000) ** 2
+    gn /= gn.mean()
+    u = rng.uniform(0.5, 2.0, 5000)
+    u /= u.sum()
+    ur2 = u * rng.normal(0.0, 0.3, 5000) ** 2
+    relative_c, p_min = 0.7, 1e-4
+
+    def written_out(log_rho):
+        if log_rho >= 15.0:
+            c, v = relative_c, gn
+        else:
+            v = 1.0 + 10.0**log_rho * gn
+            c = max(float(np.sum(ur2 * (1.0 / v))), 1e-300)
+        s = np.maximum(c * v, p_min)
+        return float(np.sum(u * np.log(s))) + float(np.sum(ur2 * (1.0 / s))), c
+
+    profile = _profile(u, ur2, gn, relative_c, p_min)
+    for log_rho in [3.0, -12.0, 15.0, 0.25, 15.0, -3.5, 12.0]:
+        assert profile(log_rho) == written_out(log_rho)
+    assert profile(0.0) != profile(2.0)
