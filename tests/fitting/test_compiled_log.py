@@ -64,6 +64,26 @@ def test_compiled_log_passes_give_the_numpy_solution(model, weights, grey):
         np.testing.assert_allclose(compiled.loss, problem.exact_loss(params), rtol=1e-11)
 
 
+def test_compiled_log_passes_keep_the_energy_rows():
+    """In an energy-conserving fit the albedo rows bind the coefficients (bright data):
+    the compiled passes solve under them as the numpy passes do."""
+    params = get_model("ggx").defaults()
+    for p in get_model("ggx").linear_params:
+        params[p.name] = params[p.name] * np.array([1.8, 1.3, 0.7])
+    data = make_data("ggx", params, n=3000, noise=0.05, seed=3, channels=["r", "g", "b"])
+    problem = Problem(data, "ggx", loss="log", energy_conserving=True)
+    free = Problem(data, "ggx", loss="log")
+    rng = np.random.default_rng(1)
+    bound = 0
+    for _ in range(4):
+        x = rng.uniform(problem.lower, problem.upper)
+        compiled, numpy = _solve_both(problem, x)
+        np.testing.assert_allclose(compiled.coefs, numpy.coefs, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(compiled.loss, numpy.loss, rtol=1e-11)
+        bound += compiled.loss > free.solve(x).loss * (1 + 1e-6)  # the rows bind
+    assert bound
+
+
 def test_the_compiled_passes_are_taken_only_where_they_apply():
     data = _data("ggx", 2000, 1)
     problem = Problem(data, "ggx", loss="log")
