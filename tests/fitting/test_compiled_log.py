@@ -143,3 +143,17 @@ def test_a_log_fit_is_the_numpy_fit():
     assert compiled.loss <= numpy.loss * (1 + 1e-10)
     for name, value in numpy.params.items():
         np.testing.assert_allclose(compiled.params[name], value, rtol=1e-6, atol=1e-12)
+
+
+@pytest.mark.parametrize("bad", [np.inf, np.nan, 1e300])
+def test_a_design_that_is_not_finite_is_refused_as_by_the_numpy_passes(bad):
+    """The loops assume finite values (fast-math): a lobe that is not finite, or whose
+    square is not, must not give a finite loss; it is refused by the bounded solve, as
+    in the numpy passes (Problem.solve turns that into BAD_LOSS)."""
+    problem = Problem(_data("ggx", 2000, 1), "ggx", loss="log")
+    lobe = np.linspace(0.0, 2.0, len(problem.y))
+    lobe[5] = bad
+    with pytest.raises(np.linalg.LinAlgError, match="not finite"), np.errstate(all="ignore"):
+        solve.solve_log(problem, {}, [1.0 / np.pi, lobe], None, None)
+    with pytest.raises(np.linalg.LinAlgError, match="not finite"), np.errstate(all="ignore"):
+        solve.solve_linear(problem, {}, np.stack([np.full(len(lobe), 0.3), lobe], 1), None, None)
