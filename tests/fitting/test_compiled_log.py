@@ -157,3 +157,22 @@ def test_a_design_that_is_not_finite_is_refused_as_by_the_numpy_passes(bad):
         solve.solve_log(problem, {}, [1.0 / np.pi, lobe], None, None)
     with pytest.raises(np.linalg.LinAlgError, match="not finite"), np.errstate(all="ignore"):
         solve.solve_linear(problem, {}, np.stack([np.full(len(lobe), 0.3), lobe], 1), None, None)
+
+
+def test_the_log_transform_in_one_array_is_the_expression_as_written():
+    """The log loss's transform and derivative, formed in place, give exactly the
+    values of ``ln(max(1 + f cos, 1e-12))`` and ``cos / max(1 + f cos, 1e-12)``."""
+    from brdffit.fitting.losses import LOSSES, LossContext
+
+    rng = np.random.default_rng(4)
+    cos_i = rng.uniform(0.0, 1.0, 4000)
+    f = rng.uniform(-3.0, 3.0, (4000, 3))  # 1 + f cos < 1e-12 too
+    f.setflags(write=False)  # a prediction is read-only
+    ctx = LossContext(cos_i=cos_i, y=np.abs(f), sigma=None, weights=None)
+    arg = np.maximum(1.0 + f * cos_i[:, None], 1e-12)
+    assert (arg == 1e-12).any()
+    log = LOSSES["log"]
+    assert np.array_equal(log.transform(f, ctx), np.log(arg))
+    assert np.array_equal(log.derivative(f, ctx), cos_i[:, None] / arg)
+    t, dt = log.both(f, ctx)
+    assert np.array_equal(t, np.log(arg)) and np.array_equal(dt, cos_i[:, None] / arg)
