@@ -73,8 +73,13 @@ class NoiseModel:
 
     def sigma(self, f) -> np.ndarray:
         """The standard deviation at model values ``f``."""
-        f = np.asarray(f, dtype=float)
-        return np.sqrt(self.a**2 + (self.b * f) ** 2)
+        out = np.array(f, dtype=float)  # a copy, squared in place (no temporaries)
+        if not out.ndim:
+            return np.sqrt(self.a**2 + (self.b * out) ** 2)
+        out *= self.b
+        np.square(out, out=out)
+        out += self.a**2
+        return np.sqrt(out, out=out)
 
     def close_to(self, other: NoiseModel, tol: float) -> bool:
         return all(
@@ -130,16 +135,7 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     ur2 = u * r2
     relative_c = max(_dot(ur2, 1.0 / np.maximum(gn, 1e-300)), 1e-300)
 
-    def profile(log_rho: float) -> tuple[float, float]:
-        """(-log-likelihood per unit weight, c) at ratio 10**log_rho."""
-        if log_rho >= 15.0:  # the pure relative form, with the floor
-            c, v = relative_c, gn
-        else:
-            v = 1.0 + 10.0**log_rho * gn
-            c = max(_dot(ur2, 1.0 / v), 1e-300)
-        s = np.maximum(c * v, p_min)
-        return _dot(u, np.log(s)) + _dot(ur2, 1.0 / s), c
-
+    profile = _profile(u, ur2, gn, relative_c, p_min)
     grid = np.linspace(-12.0, 12.0, GRID)
     values = [profile(x)[0] for x in grid]
     i = int(np.argmin(values))
@@ -155,6 +151,34 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     return NoiseModel(math.sqrt(max(c, p_min)), math.sqrt(c * rho / g_scale))
 
 
+def _profile(u, ur2, gn, relative_c: float, p_min: float):
+    """The profile of :func:`estimate`: ``log_rho -> (-log-likelihood per unit weight,
+    c)``. Its values are those of the formulas written out (``v = 1 + rho g``,
+    ``c = sum u r^2 / v``, ``s = max(c v, p_min)``, ``sum u ln s + sum u r^2 / s``): the
+    same operations on the same values, in two buffers reused by every call instead
+    of seven new arrays (each of them a fresh mapping of 2.4 MB to fault in: the
+    estimate's ~35 calls took 0.2 s on a MERL file's 300,000 values)."""
+    v, t = np.empty_like(gn), np.empty_like(gn)
+
+    def total(a, b) -> float:  # _dot(a, b) with b in t: sum(a * b), t overwritten
+        np.multiply(a, b, out=t)
+        return float(np.sum(t))
+
+    def profile(log_rho: float) -> tuple[float, float]:
+        if log_rho >= 15.0:  # the pure relative form, with the floor
+            c = relative_c
+            np.multiply(gn, c, out=v)
+        else:
+            np.multiply(gn, 10.0**log_rho, out=v)
+            np.add(v, 1.0, out=v)
+            c = max(total(ur2, np.divide(1.0, v, out=t)), 1e-300)
+            np.multiply(v, c, out=v)
+        s = np.maximum(v, p_min, out=v)
+        return total(u, np.log(s, out=t)) + total(ur2, np.divide(1.0, s, out=t)), c
+
+    return profile
+
+
 def _thinned(*arrays):
     """The arrays, or every k-th of their values when they hold over :data:`MAX_VALUES`."""
     step = max(-(-arrays[0].size // MAX_VALUES), 1)
@@ -168,10 +192,33 @@ def _round_noise(problem, found) -> tuple:
     y = np.asarray(problem.data.values, dtype=float)
     valid = problem.geometry.valid
     weights = problem.user_weights
-    noise = estimate(
-        (y - pred)[valid], pred[valid], None if weights is None else np.asarray(weights)[valid]
-    )
+    w = None if weights is None else np.asarray(weights, dtype=float)
+    sample = _systematic_sample(y, pred, None if problem.geometry.all_valid else valid, w)
+    if sample is not None:
+        return pred, estimate(*sample)
+    noise = estimate((y - pred)[valid], pred[valid], None if w is None else w[valid])
     return pred, noise
+
+
+def _systematic_sample(y, pred, valid, w):
+    """The residuals, predictions (K, 1) and weights (K,) that :func:`estimate` would
+    keep of the valid rows of ``y - pred`` (every k-th value, :func:`_thinned`), read
+    directly (a MERL file: 3.3 M residuals, squares and masks were formed to keep
+    300,000 of them), or None when estimate would drop some values first (a weight
+    of 0, a value that is not finite or whose square is not): then the full arrays.
+    The values and their order are those of the full path, so (a, b) are the same."""
+    ends = [(a.max(initial=0.0), -a.min(initial=0.0)) for a in (y, pred)]
+    bound = np.max(ends)  # max |y|, max |pred|; NaN if either holds one
+    if not bound < 1e150 or (w is not None and not w.min(initial=1.0) > 0.0):
+        return None  # NaN fails the comparisons; squares of |y - pred| < 2e150 are finite
+    rows = np.arange(y.shape[0]) if valid is None else np.flatnonzero(valid)
+    c = y.shape[1]
+    step = max(-(-rows.size * c // MAX_VALUES), 1)
+    flat = np.arange(0, rows.size * c, step)
+    index, channel = rows[flat // c], flat % c
+    f = pred[index, channel]
+    resid = y[index, channel] - f
+    return resid[:, None], f[:, None], None if w is None else w[index]
 
 
 def _counted(progress, before: int, max_evals: int, label: str):

@@ -30,6 +30,7 @@ from .solve import (
     as_2d,
     compact_weights,
     solve_linear,
+    solve_log,
     solve_normal,
     stack_columns,
 )
@@ -198,6 +199,7 @@ class Problem:
         # For quadratic losses the target never changes: W y and y'Wy are reused
         # by every evaluation of a model without an offset.
         self._weighted = weighted_target(self.z_lin, self.w_lin) if self.loss.linear else None
+        self.log_inputs = None  # the compiled log passes' inputs (solve.solve_log)
 
     def _noise_sigma(self, noise_sigma, shape):
         """The noise model's sigma (N, C) for a loss that needs one (ones to start), else None."""
@@ -274,10 +276,14 @@ class Problem:
             offset = term if offset is None else offset + term
         free = [cols[i] for i in self.coef_index]
         constraints = self._constraints_for(shape)
-        normal = self._compiled_normal([design.columns[i] for i in self.coef_index], offset)
+        raw = [design.columns[i] for i in self.coef_index]
+        normal = self._compiled_normal(raw, offset)
         try:
             if normal is not None:
                 return solve_normal(self, shape, normal, constraints)
+            compiled = solve_log(self, shape, raw, offset, constraints)
+            if compiled is not None:
+                return compiled
             return solve_linear(self, shape, stack_columns(free, m, c), offset, constraints)
         except np.linalg.LinAlgError:
             # No coefficients satisfy the constraints at this shape (energy

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .linear import normal_equations, solve_bounded, weighted_target
+from .. import kernels
+from .linear import Normal, normal_equations, solve_bounded, weighted_target
 
 __all__ = [
     "BAD_LOSS",
@@ -17,6 +18,7 @@ __all__ = [
     "compact_weights",
     "least_squares",
     "solve_linear",
+    "solve_log",
     "solve_normal",
     "stack_columns",
 ]
@@ -54,6 +56,52 @@ def solve_linear(problem, shape, a, offset, constraints) -> Solution:
     if not np.isfinite(loss):
         loss = BAD_LOSS
     return Solution(shape, coefs, loss)
+
+
+def solve_log(problem, shape, columns, offset, constraints) -> Solution | None:
+    """:func:`solve_linear` for the ``log`` loss with compiled passes
+    (:mod:`brdffit.kernels.loss_log`), for designs of one array column and constants
+    without an offset: the same :data:`NONLINEAR_PASSES` Gauss-Newton passes, the
+    first from the linearisation at the data, each later one and the loss in one
+    pass over the samples. None where that does not apply (then solve_linear)."""
+    if problem.loss.name != "log" or offset is not None or not kernels.wanted(len(problem.y)):
+        return None
+    arrays = [k for k, col in enumerate(columns) if np.ndim(col)]
+    if len(arrays) != 1 or np.ndim(columns[arrays[0]]) != 1:
+        return None
+    from ..kernels import loss_log
+    from ..kernels import normal as kernels_normal
+
+    lobe = np.ascontiguousarray(columns[arrays[0]], dtype=float)
+    cos_i, ty_t, u, weighted = _log_inputs(problem)
+    normal = kernels_normal.normal_equations(
+        columns, problem.z_lin, problem.w_lin, weighted, Normal
+    )
+    constant = np.array([0.0 if np.ndim(col) else float(col) for col in columns])
+    for i in range(NONLINEAR_PASSES):
+        coefs, _ = solve_bounded(normal, problem.coef_lower, problem.coef_upper, constraints)
+        sums = loss_log.log_sums(lobe, cos_i, ty_t, u, coefs @ constant, coefs[:, arrays[0]])
+        if i < NONLINEAR_PASSES - 1:
+            s, t0, t1, yy = sums[:3], sums[3], sums[4], sums[5]
+            normal = kernels_normal.assemble(columns, s, t0, t1, yy, Normal)
+    loss = (float(sums[6].sum()) + problem.invalid_loss) / problem.norm
+    return Solution(shape, coefs, loss if np.isfinite(loss) else BAD_LOSS)
+
+
+def _log_inputs(problem) -> tuple:
+    """What every compiled log pass of ``problem`` reads, made once per problem:
+    cos(theta_i) (M,), the transformed data (C, M), the sample weights (M,) (ones
+    without) and the weighted targets of the first pass."""
+    if problem.log_inputs is None:
+        ctx = problem.ctx
+        m = len(ctx.cos_i)
+        problem.log_inputs = (
+            np.ascontiguousarray(ctx.cos_i, dtype=float),
+            np.ascontiguousarray(problem.loss.target(ctx).T, dtype=float),
+            np.ones(m) if ctx.weights is None else np.ascontiguousarray(ctx.weights, dtype=float),
+            weighted_target(problem.z_lin, problem.w_lin),
+        )
+    return problem.log_inputs
 
 
 def solve_normal(problem, shape, normal, constraints) -> Solution:

@@ -22,7 +22,7 @@ import weakref
 
 import numpy as np
 
-__all__ = ["normal_equations"]
+__all__ = ["assemble", "normal_equations"]
 
 
 def _loops():
@@ -81,8 +81,14 @@ def normal_equations(columns: list, y: np.ndarray, w, weighted, normal_class):
         s1, s2, t1 = _loops().moments(lobe, weights, wy_t)
     else:
         s1, s2, t1 = _loops().moments_by_channel(lobe, w_t, wy_t)
-    s = (s0, s1, s2)
-    k, c = len(columns), y.shape[1]
+    return assemble(columns, (s0, s1, s2), t0, t1, yy, normal_class)
+
+
+def assemble(columns: list, s: tuple, t0, t1, yy, normal_class):
+    """``normal_class(gram, rhs, yy)`` from the sums of the module: ``s = (S0, S1, S2)``,
+    ``t0``, ``t1`` and ``yy``, each a float or (C,), for ``columns`` (K items, each a
+    float or the one (M,) array column)."""
+    k, c = len(columns), np.shape(yy)[0]
     gram = np.empty((c, k, k))
     rhs = np.empty((c, k))
     for j, cj in enumerate(columns):

@@ -154,3 +154,60 @@ def test_large_data_estimate_the_noise_on_a_systematic_sample(monkeypatch):
     monkeypatch.setattr(noise_module, "MAX_VALUES", 10**9)
     whole = estimate(y - f, f)
     assert sampled.close_to(whole, 0.02) and not sampled.close_to(whole, 1e-12)
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+@pytest.mark.parametrize("valid_rows", ["all", "some"])
+def test_the_systematic_sample_is_read_without_the_full_residuals(
+    monkeypatch, weighted, valid_rows
+):
+    """The round's (a, b) from the values read directly are those of the full path
+    (residuals, squares and masks over every value, then every k-th kept), exactly;
+    where that path would drop values first (a weight of 0, NaN), the full path runs."""
+    from brdffit.fitting import noise as noise_module
+
+    monkeypatch.setattr(noise_module, "MAX_VALUES", 1000)
+    rng = np.random.default_rng(5)
+    f = rng.uniform(0.0, 3.0, (4001, 3))
+    y = f + np.sqrt(0.02**2 + (0.05 * f) ** 2) * rng.standard_normal(f.shape)
+    valid = None if valid_rows == "all" else rng.random(4001) > 0.3
+    w = rng.uniform(0.5, 2.0, 4001) if weighted else None
+    sample = noise_module._systematic_sample(y, f, valid, w)
+    assert sample is not None and sample[0].shape[0] <= 1000
+    keep = np.ones(4001, dtype=bool) if valid is None else valid
+    full = estimate((y - f)[keep], f[keep], None if w is None else w[keep])
+    assert estimate(*sample) == full
+    y[7, 1] = np.nan
+    assert noise_module._systematic_sample(y, f, valid, w) is None
+    y[7, 1] = 0.0
+    if weighted:
+        w[3] = 0.0
+        assert noise_module._systematic_sample(y, f, valid, w) is None
+
+
+def test_the_profile_in_reused_buffers_is_the_formulas_written_out():
+    """The estimate's profile (two buffers reused by every call) gives exactly the
+    values of its formulas with new arrays, at every ratio, called in any order."""
+    from brdffit.fitting.noise import _profile
+
+    rng = np.random.default_rng(12)
+    gn = rng.uniform(0.0, 4.0, 5000) ** 2
+    gn /= gn.mean()
+    u = rng.uniform(0.5, 2.0, 5000)
+    u /= u.sum()
+    ur2 = u * rng.normal(0.0, 0.3, 5000) ** 2
+    relative_c, p_min = 0.7, 1e-4
+
+    def written_out(log_rho):
+        if log_rho >= 15.0:
+            c, v = relative_c, gn
+        else:
+            v = 1.0 + 10.0**log_rho * gn
+            c = max(float(np.sum(ur2 * (1.0 / v))), 1e-300)
+        s = np.maximum(c * v, p_min)
+        return float(np.sum(u * np.log(s))) + float(np.sum(ur2 * (1.0 / s))), c
+
+    profile = _profile(u, ur2, gn, relative_c, p_min)
+    for log_rho in [3.0, -12.0, 15.0, 0.25, 15.0, -3.5, 12.0]:
+        assert profile(log_rho) == written_out(log_rho)
+    assert profile(0.0) != profile(2.0)
