@@ -64,7 +64,11 @@ def solve_log(problem, shape, columns, offset, constraints) -> Solution | None:
     without an offset: the same :data:`NONLINEAR_PASSES` Gauss-Newton passes, the
     first from the linearisation at the data, each later one and the loss in one
     pass over the samples. None where that does not apply (then solve_linear)."""
-    if problem.loss.name != "log" or offset is not None or not kernels.wanted(len(problem.y)):
+    if (
+        problem.loss.name != "log"
+        or offset is not None
+        or not kernels.wanted(len(problem.y), modules=("loss_log",))
+    ):
         return None
     arrays = [k for k, col in enumerate(columns) if np.ndim(col)]
     if len(arrays) != 1 or np.ndim(columns[arrays[0]]) != 1:
