@@ -158,3 +158,22 @@ def test_renderer_loops_that_fail_to_import_leave_the_numpy_formulas(monkeypatch
         assert not kernels.wanted(10**6)
     with kernels.use(True):
         np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
+
+
+def test_the_roughplastic_loops_refuse_a_table_of_another_size():
+    """The loops copy the table to a stack array of TABLE_SIZE values (so that their
+    look-ups vectorise): a table of another size is refused, not read or written past
+    its end."""
+    from brdffit.kernels import loops_renderers as loops
+    from brdffit.kernels.plastic_table import TABLE_SIZE, transmittance_table
+
+    z = np.linspace(0.01, 1.0, 50)
+    table = transmittance_table(0.2, 1.5)
+    good = loops.plastic_diffuse(z, z, table, 1.5, np.empty(50))
+    assert table.shape == (TABLE_SIZE,) and np.all(good > 0.0)
+    for size in (TABLE_SIZE - 1, TABLE_SIZE + 1):
+        with pytest.raises(ValueError, match=f"TABLE_SIZE = {TABLE_SIZE} values"):
+            loops.plastic_diffuse(z, z, np.ones(size), 1.5, np.empty(50))
+        with pytest.raises(ValueError, match=f"TABLE_SIZE = {TABLE_SIZE} values"):
+            loops.plastic_evaluate(z, z, z, z, z, z, z, np.ones(size), 1.5, 0.04, 0.5, 1.0,
+                                   np.empty(50))  # fmt: skip
