@@ -84,13 +84,13 @@ def plastic_inputs(g: Geometry) -> tuple:
 
 
 def principled_inputs(g: Geometry) -> tuple:
-    """Mitsuba's principled: ``N.H``, ``sin^2(theta_h)``, ``N.L``, ``N.V`` and ``V.H``
-    (its GGX from cosines, see :func:`~brdffit.kernels.loops_renderers.principled`;
-    Schlick's weights of the last three are computed in the loop)."""
-    return g.cos_h, g.sin2_h, g.cos_i, g.cos_o, g.cos_d
+    """Mitsuba's principled: ``tan^2(theta_h)``, ``N.L``, ``N.V`` and ``V.H`` (its GGX
+    from these, see :func:`~brdffit.kernels.loops_renderers.principled`; Schlick's
+    weights of the last three are computed in the loop)."""
+    return g.tan2_h, g.cos_i, g.cos_o, g.cos_d
 
 
 def principled_anisotropic_inputs(g: Geometry) -> tuple:
-    """Anisotropic principled: the six ``tan^2`` axes of H, L and V, GGX's factor
-    ``1 / (4 (N.L)(N.V) (N.H)^4)``, then ``V.H``, ``N.L`` and ``N.V``."""
-    return (*_anisotropic_axes(g), microfacet_inputs(g)[3], g.cos_d, g.cos_i, g.cos_o)
+    """Anisotropic principled: the six ``tan^2`` axes of H, L and V, then ``V.H``,
+    ``N.L`` and ``N.V`` (GGX's factor is computed in the loop)."""
+    return (*_anisotropic_axes(g), g.cos_d, g.cos_i, g.cos_o)
