@@ -13,11 +13,12 @@ import numpy as np
 
 from ..data.geometry import Geometry
 from ..models.microfacet import inv_4_cos
-from .inputs import _anisotropic_axes, microfacet_inputs
+from .inputs import microfacet_inputs
 
 __all__ = [
     "conductor_anisotropic_inputs",
     "conductor_inputs",
+    "directions",
     "gltf_anisotropic_inputs",
     "gltf_inputs",
     "plastic_inputs",
@@ -63,10 +64,20 @@ def conductor_inputs(g: Geometry) -> tuple:
     return (*microfacet_inputs(g)[:4], g.cos_d)
 
 
+def directions(g: Geometry) -> tuple:
+    """The components ``x, y, z`` of L, then of V, each contiguous; cached. The
+    anisotropic GGX loops compute H, its clamped cosine, the ``tan^2`` axes and ``V.H``
+    from them (:func:`~brdffit.kernels.loops_renderers._ggx_dg_directions`): six arrays
+    read instead of seven to eleven, and those loops are limited by memory traffic."""
+    return g.cached(
+        "kernels.directions",
+        lambda: tuple(np.ascontiguousarray(w[:, j]) for w in (g.wi, g.wo) for j in range(3)),
+    )
+
+
 def conductor_anisotropic_inputs(g: Geometry) -> tuple:
-    """Anisotropic roughconductor: the six ``tan^2`` axes of H, L and V, GGX's factor
-    and ``V.H``."""
-    return (*_anisotropic_axes(g), microfacet_inputs(g)[3], g.cos_d)
+    """Anisotropic roughconductor: :func:`directions`."""
+    return directions(g)
 
 
 def plastic_z(g: Geometry) -> tuple:
@@ -84,13 +95,11 @@ def plastic_inputs(g: Geometry) -> tuple:
 
 
 def principled_inputs(g: Geometry) -> tuple:
-    """Mitsuba's principled: ``tan^2(theta_h)``, ``N.L``, ``N.V`` and ``V.H`` (its GGX
-    from these, see :func:`~brdffit.kernels.loops_renderers.principled`; Schlick's
-    weights of the last three are computed in the loop)."""
-    return g.tan2_h, g.cos_i, g.cos_o, g.cos_d
+    """Mitsuba's principled: ``tan^2`` of H, L and V (GGX's, cached), ``N.L``, ``N.V``
+    and ``V.H`` (Schlick's weights of the last three are computed in the loop)."""
+    return (*microfacet_inputs(g)[:3], g.cos_i, g.cos_o, g.cos_d)
 
 
 def principled_anisotropic_inputs(g: Geometry) -> tuple:
-    """Anisotropic principled: the six ``tan^2`` axes of H, L and V, then ``V.H``,
-    ``N.L`` and ``N.V`` (GGX's factor is computed in the loop)."""
-    return (*_anisotropic_axes(g), g.cos_d, g.cos_i, g.cos_o)
+    """Anisotropic principled: :func:`directions`."""
+    return directions(g)

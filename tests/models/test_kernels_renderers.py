@@ -200,3 +200,24 @@ def test_fast_reciprocal_is_accurate_to_rounding_over_the_normal_range():
     x = np.concatenate([np.geomspace(tiny, 2.0**1021, 400_001), [1.0, 2.0, 3.0, 1e-40, 1e40]])
     rel = np.abs(run(x, np.empty_like(x)) * x - 1.0)
     assert rel.max() < 4 * np.finfo(float).eps, rel.max()
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["gltf_pbr", "gltf_pbr_anisotropic", "mitsuba_roughconductor",
+     "mitsuba_roughconductor_anisotropic", "mitsuba_principled",
+     "mitsuba_principled_anisotropic", "mitsuba_roughplastic"],
+)  # fmt: skip
+def test_directions_off_unit_length_give_the_numpy_values(name):
+    """Directions are accepted within 1e-6 of unit length and not normalised; the
+    anisotropic loops compute H and the cosines from the components of L and V, so
+    they must not assume unit length: compiled and numpy agree there too (with
+    eta != 0 so that the conductor's Fresnel factor, from V.H, is computed)."""
+    model = get_model(name)
+    wi, wo = hemisphere_pairs(1500, seed=36)
+    rng = np.random.default_rng(36)
+    wi = wi * (1.0 + rng.uniform(-9e-7, 9e-7, (wi.shape[0], 1)))
+    wo = wo * (1.0 + rng.uniform(-9e-7, 9e-7, (wo.shape[0], 1)))
+    params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
+    compiled, reference = _both(model, Geometry(wi, wo), params)
+    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
