@@ -125,6 +125,15 @@ def dielectric_fresnel(geometry, eta: float) -> np.ndarray:
     return last[1]
 
 
+class _Principled(_Coloured):
+    """:class:`_Coloured` whose ``prepare`` also names the loop (the isotropic model
+    has one for directions of unit length, :func:`~.inputs_renderers.unit_directions`)."""
+
+    def run(self, geometry, shape: Mapping, base: float, column: np.ndarray) -> np.ndarray:
+        loop, arrays = self.prepare(geometry, shape)
+        return _loop(loop)(*arrays, *self.shape(shape), base, column, np.empty(geometry.m))
+
+
 def _principled(anisotropic: bool) -> _Coloured:
     """Mitsuba's widths (``principled_alphas``; the square of the isotropic one), then
     metallic and roughness; ``F`` of the index of ``specular`` (``principled_eta``)
@@ -132,7 +141,8 @@ def _principled(anisotropic: bool) -> _Coloured:
 
     def prepare(g, s: Mapping) -> tuple:
         terms = inputs.principled_anisotropic_inputs if anisotropic else inputs.principled_inputs
-        return (*terms(g), dielectric_fresnel(g, principled_eta(float(s["specular"]))))
+        loop, arrays = terms(g)
+        return loop, (*arrays, dielectric_fresnel(g, principled_eta(float(s["specular"]))))
 
     def shape(s: Mapping) -> tuple:
         rough = float(s["roughness"])
@@ -140,8 +150,7 @@ def _principled(anisotropic: bool) -> _Coloured:
         widths = (au, av) if anisotropic else (au * au,)
         return (*widths, float(s["metallic"]), rough)
 
-    loop = "principled_anisotropic" if anisotropic else "principled"
-    return _Coloured(loop, prepare, shape)
+    return _Principled("", prepare, shape)
 
 
 SPECS["mitsuba_principled"] = _principled(False)

@@ -13,7 +13,8 @@ pair by pair, in the same order of operations where rounding matters:
 - Mitsuba 3's ``roughplastic`` (src/bsdfs/roughplastic.cpp; Kelemen and
   Szirmay-Kalos, Eurographics 2001) with its tabulated transmittance;
 - Mitsuba 3's ``principled`` reflection lobes (src/bsdfs/principled.cpp; Burley,
-  Physically-based shading at Disney, SIGGRAPH 2012 course notes).
+  Physically-based shading at Disney, SIGGRAPH 2012 course notes), in
+  :mod:`brdffit.kernels.loops_principled`.
 
 Models linear in a colour (glTF, principled) write the colour's ``column`` and the
 ``offset`` when ``column`` has pairs, else the BRDF at the colour ``base`` into ``out``.
@@ -23,21 +24,20 @@ from __future__ import annotations
 
 import math
 
-import numba
-
-from ..data.geometry import MIN_COSINE
 from ..models.renderer_native import PERFECT_K_MIN
-from ._compile import FLAGS, jit
-from .elementary import fast_reciprocal
+from ._compile import jit
 from .loops import _twice_fresnel_dielectric
+from .loops_principled import (  # noqa: F401 (the loops bind_renderers looks up here)
+    _inline,
+    _schlick,
+    principled,
+    principled_anisotropic,
+    principled_unit,
+)
 from .plastic_table import TABLE_SIZE, local_table
 
 _INV_PI = 1.0 / math.pi
 _F0 = 0.04  # glTF's dielectric reflectance at normal incidence (ior 1.5)
-
-
-def _inline(function):
-    return numba.njit(inline="always", fastmath=FLAGS)(function)
 
 
 @_inline
@@ -50,34 +50,14 @@ def _ggx_dg(tan2_h, tan2_i, tan2_o, factor, inv_a2, alpha2):
 
 
 @_inline
-def _ggx_dg_directions(lx, ly, lz, vx, vy, vz, u2, v2, inv_u2, inv_v2):
-    """Anisotropic GGX's ``D G1(L) G1(V) / (4 (N.L)(N.V))`` times ``pi alpha_u
-    alpha_v`` from the components of L and V, with the geometry's clamps
-    (:class:`~brdffit.data.geometry.Geometry`); also ``|L + V|^2``, ``N.L`` and ``N.V``.
-
-    With ``h = L + V`` (not normalised), ``s = |h|^2`` and ``c = s^(1/2) N.H`` (``N.H``
-    clamped to [1e-10, 1]: ``c^2 = min(max(h_z^2, 1e-20 s), s)``), Heitz's ``D =
-    s^2 / (pi alpha_u alpha_v Q^2)``, ``Q = c^2 + h_x^2/alpha_u^2 + h_y^2/alpha_v^2``,
-    and ``G1(L) = 2 c_L / (c_L + S_L)``, ``S_L = sqrt(c_L^2 + alpha_u^2 l_x^2 + alpha_v^2
-    l_y^2)`` (JCGT 3(2), 2014, section 5.4): sums of positive terms, so within
-    rounding of the numpy model's tangent form, with no division but one."""
-    hx, hy, hz = lx + vx, ly + vy, lz + vz
-    s = hx * hx + hy * hy + hz * hz
-    c2 = min(max(hz * hz, 1e-20 * s), s)
-    q = c2 + (hx * hx * inv_u2 + hy * hy * inv_v2)
-    ci, co = max(lz, MIN_COSINE), max(vz, MIN_COSINE)
-    si = math.sqrt(ci * ci + (u2 * (lx * lx) + v2 * (ly * ly)))
-    so = math.sqrt(co * co + (u2 * (vx * vx) + v2 * (vy * vy)))
-    return (s * s) * fast_reciprocal(q * q * ((ci + si) * (co + so))), s, ci, co
-
-
-@_inline
-def _schlick(c):
-    """``(1 - c)^5`` in the numpy model's order of products."""
-    w = 1.0 - c
-    w2 = w * w
-    w2 = w2 * w2
-    return w * w2
+def _ggx_dg_anisotropic(tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, inv_u2, inv_v2, u2, v2):
+    """As :func:`_ggx_dg` with ``alpha_u`` along T, ``alpha_v`` along B (Heitz 2014,
+    section 5.4), without its constant ``4 / (pi alpha_u alpha_v)``."""
+    t = 1.0 + tan2_t * inv_u2 + tan2_b * inv_v2
+    g = (1.0 + math.sqrt(1.0 + u2 * tx_i + v2 * ty_i)) * (
+        1.0 + math.sqrt(1.0 + u2 * tx_o + v2 * ty_o)
+    )
+    return factor / (t * t * g)
 
 
 @_inline
@@ -110,42 +90,46 @@ def gltf(tan2_h, tan2_i, tan2_o, factor, weight, alpha2, metallic, base, column,
 
 
 @_inline
-def _rotated_spec(sx_h, sy_h, sx_i, sy_i, sx_o, sy_o, factor, at, ab, inv_t, inv_b, c, s):
-    """``D V`` of :func:`gltf_anisotropic` at one pair, without its ``2 / (pi at ab)``."""
-    ht, hb = (sx_h * c + sy_h * s) * inv_t, (sy_h * c - sx_h * s) * inv_b
-    q = 1.0 + (ht * ht + hb * hb)
+def _rotated_spec(hx, hy, sx_i, sy_i, sx_o, sy_o, at, ab, inv_t2, inv_b2, c, s):
+    """``D V`` of :func:`gltf_anisotropic` at one pair, without its ``2 inv_4_cos / (pi
+    at ab)``: ``1 / (q^2 (s_L + s_V))``, ``q = (h_t/a_t)^2 + (h_b/a_b)^2 + h_z^2`` with
+    ``h_z^2 = 1 - h_x^2 - h_y^2`` (H is normalised; ``q >= |H|^2 = 1`` as ``a_t, a_b <=
+    1``, so the rounding of ``h_z^2`` moves ``q`` by a few ulps only). A true division:
+    ``s_L`` is infinite for L within 1e-154 of the horizon, as the numpy model's, and
+    the value then 0 as there."""
+    ht, hb = hx * c + hy * s, hy * c - hx * s
+    q = ht * ht * inv_t2 + hb * hb * inv_b2 + (1.0 - hx * hx - hy * hy)
     lt, lb = at * (sx_i * c + sy_i * s), ab * (sy_i * c - sx_i * s)
     vt, vb = at * (sx_o * c + sy_o * s), ab * (sy_o * c - sx_o * s)
     root = math.sqrt(1.0 + (lt * lt + lb * lb)) + math.sqrt(1.0 + (vt * vt + vb * vb))
-    return factor / (q * q * root)
+    return 1.0 / (q * q * root)
 
 
 @jit
 def gltf_anisotropic(
-    sx_h, sy_h, sx_i, sy_i, sx_o, sy_o, factor, weight,
+    hx, hy, sx_i, sy_i, sx_o, sy_o, inv_4_cos, weight,
     at, ab, c, s, metallic, base, column, out,
 ):  # fmt: skip
-    """glTF with KHR_materials_anisotropy: ``D = 1 / (pi a_t a_b H_z^4 q^2)``, ``q = 1 +
-    (h_t/a_t)^2 + (h_b/a_b)^2`` with ``h = H/H_z`` on the axes ``(t, b)`` rotated by
-    ``r`` (``c = cos r``, ``s = sin r``), and ``V = 2 / ((s_L + s_V) 4 (N.L)(N.V))``,
-    ``s_w = sqrt(1 + a_t^2 w_t^2 + a_b^2 w_b^2)`` from the slopes ``w / w_z``;
-    ``factor = 1 / (4 (N.L)(N.V) H_z^4)``."""
-    inv_t, inv_b = 1.0 / at, 1.0 / ab
+    """glTF with KHR_materials_anisotropy: ``D = 1 / (pi a_t a_b q^2)`` (H's components
+    ``h_t``, ``h_b`` on the axes ``(t, b)`` rotated by ``r``: ``c = cos r``, ``s = sin
+    r``), ``V = 2 / ((s_L + s_V) 4 (N.L)(N.V))``, ``s_w = sqrt(1 + a_t^2 w_t^2 + a_b^2
+    w_b^2)`` from the slopes ``w / w_z`` (:func:`_rotated_spec`). The loop of before
+    read H's slopes and ``1 / (4 (N.L)(N.V) H_z^4)``, which overflowed for H within
+    1e-77 of the horizon (the value then NaN); now H's ``x`` and ``y``."""
+    inv_t2, inv_b2 = 1.0 / (at * at), 1.0 / (ab * ab)
     scale = 2.0 * _INV_PI / (at * ab)
     diffuse_scale = (1.0 - metallic) * _INV_PI
     if column.shape[0] > 0:
         for i in range(out.shape[0]):
-            spec = scale * _rotated_spec(
-                sx_h[i], sy_h[i], sx_i[i], sy_i[i], sx_o[i], sy_o[i], factor[i],
-                at, ab, inv_t, inv_b, c, s,
-            )  # fmt: skip
+            spec = (scale * inv_4_cos[i]) * _rotated_spec(
+                hx[i], hy[i], sx_i[i], sy_i[i], sx_o[i], sy_o[i], at, ab, inv_t2, inv_b2, c, s
+            )
             column[i], out[i] = _gltf_mix(spec, weight[i], metallic, diffuse_scale)
         return out
     for i in range(out.shape[0]):
-        spec = scale * _rotated_spec(
-            sx_h[i], sy_h[i], sx_i[i], sy_i[i], sx_o[i], sy_o[i], factor[i],
-            at, ab, inv_t, inv_b, c, s,
-        )  # fmt: skip
+        spec = (scale * inv_4_cos[i]) * _rotated_spec(
+            hx[i], hy[i], sx_i[i], sy_i[i], sx_o[i], sy_o[i], at, ab, inv_t2, inv_b2, c, s
+        )
         col, off = _gltf_mix(spec, weight[i], metallic, diffuse_scale)
         out[i] = off + base * col
     return out
@@ -186,95 +170,27 @@ def conductor(tan2_h, tan2_i, tan2_o, factor, cos_d, alpha2, eta, k, a, out):
 
 
 @jit
-def conductor_anisotropic(lx, ly, lz, vx, vy, vz, alpha_u, alpha_v, eta, k, a, out):
-    """:func:`conductor` with anisotropic GGX (``alpha_u`` along T, ``alpha_v`` along
-    B), from the components of L and V (:func:`_ggx_dg_directions`; ``V.H = |L + V| /
-    2``, clamped to 1, as the geometry's): six arrays, not seven (eight with ``V.H``)."""
+def conductor_anisotropic(
+    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, cos_d, alpha_u, alpha_v, eta, k, a, out
+):
+    """:func:`conductor` with anisotropic GGX (``alpha_u`` along T, ``alpha_v`` along B)."""
     u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
     inv_u2, inv_v2 = 1.0 / u2, 1.0 / v2
-    scale = a * _INV_PI / (alpha_u * alpha_v)
+    scale = 4.0 * a * _INV_PI / (alpha_u * alpha_v)
     e2_k2, four_e2k2 = eta * eta - k * k, 4.0 * (eta * eta) * (k * k)
-    if eta == 0.0 and k >= PERFECT_K_MIN:  # F = 1: V.H is not needed
+    if eta == 0.0 and k >= PERFECT_K_MIN:  # F = 1: V.H is not read
         for i in range(out.shape[0]):
-            dg, _, _, _ = _ggx_dg_directions(
-                lx[i], ly[i], lz[i], vx[i], vy[i], vz[i], u2, v2, inv_u2, inv_v2
-            )
-            out[i] = scale * dg
+            out[i] = scale * _ggx_dg_anisotropic(
+                tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], factor[i],
+                inv_u2, inv_v2, u2, v2,
+            )  # fmt: skip
         return out
     for i in range(out.shape[0]):
-        dg, s, _, _ = _ggx_dg_directions(
-            lx[i], ly[i], lz[i], vx[i], vy[i], vz[i], u2, v2, inv_u2, inv_v2
-        )
-        fresnel = _fresnel_conductor(min(0.5 * math.sqrt(s), 1.0), e2_k2, four_e2k2)
-        out[i] = (scale * dg) * fresnel
-    return out
-
-
-@_inline
-def _principled_mix(dg, cd, ci, co, fresnel, metallic, rough):
-    """Mitsuba principled's ``(column, offset)`` from ``dg = D G / (4 (N.L)(N.V))``:
-    Burley's diffuse with retro-reflection ``R = 2 roughness (V.H)^2`` and the
-    dielectric ``fresnel`` mixed with Schlick's on base_color by ``metallic``."""
-    w, w_i, w_o = _schlick(cd), _schlick(ci), _schlick(co)
-    retro = 2.0 * rough * cd * cd
-    diffuse = (1.0 - 0.5 * w_i) * (1.0 - 0.5 * w_o)
-    diffuse += retro * ((w_i + w_o) + (w_i * w_o) * (retro - 1.0))
-    column = (1.0 - metallic) * _INV_PI * diffuse + metallic * (1.0 - w) * dg
-    return column, ((1.0 - metallic) * fresnel + metallic * w) * dg
-
-
-@jit
-def principled(
-    tan2_h, tan2_i, tan2_o, cos_i, cos_o, cos_d, fresnel,
-    alpha2, metallic, rough, base, column, out,
-):  # fmt: skip
-    """Mitsuba 3's principled reflection with isotropic GGX of width ``alpha``;
-    ``fresnel`` the dielectric Fresnel factor of its index (:func:`dielectric`).
-
-    ``(N.H)^2 = 1 / (1 + tan^2 theta_h)`` (also where the geometry clamps ``N.H``), so
-    ``D G1(L) G1(V) / (4 (N.L)(N.V)) = p^2 / (pi alpha^2 q^2 g (N.L)(N.V))``, ``p = 1 +
-    tan^2 theta_h``, ``q = 1 + tan^2 theta_h / alpha^2``, ``g = (1 + sqrt(1 + alpha^2
-    tan^2 theta_L))(1 + sqrt(1 + alpha^2 tan^2 theta_V))``: seven arrays and one
-    reciprocal. (The loop of before read six, with ``G1`` from the cosines alone,
-    ``tan^2 = (1 - c^2) / c^2``, which holds for unit L and V only: directions are
-    accepted within 1e-6 of unit length, and there it was 1e-6 off the numpy model.)"""
-    inv_a2 = 1.0 / alpha2
-    scale = _INV_PI * inv_a2
-    for i in range(out.shape[0]):
-        ci, co, t2 = cos_i[i], cos_o[i], tan2_h[i]
-        p, q = 1.0 + t2, 1.0 + t2 * inv_a2
-        g_i = 1.0 + math.sqrt(1.0 + alpha2 * tan2_i[i])
-        g_o = 1.0 + math.sqrt(1.0 + alpha2 * tan2_o[i])
-        dg = scale * (p * p) * fast_reciprocal(q * q * (g_i * g_o) * (ci * co))
-        col, off = _principled_mix(dg, cos_d[i], ci, co, fresnel[i], metallic, rough)
-        if column.shape[0] > 0:
-            column[i], out[i] = col, off
-        else:
-            out[i] = off + base * col
-    return out
-
-
-@jit
-def principled_anisotropic(
-    lx, ly, lz, vx, vy, vz, fresnel, alpha_u, alpha_v, metallic, rough, base, column, out
-):
-    """:func:`principled` with anisotropic GGX (``alpha_u`` along T, ``alpha_v`` along
-    B), from the components of L and V (:func:`_ggx_dg_directions`; ``V.H = |L + V| /
-    2``, clamped to 1, as the geometry's): seven arrays, not eleven (measured at 1M
-    pairs: 6.0 -> 4.4 ns a pair, though 0.5 ns more in the cache)."""
-    u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
-    inv_u2, inv_v2 = 1.0 / u2, 1.0 / v2
-    scale = _INV_PI / (alpha_u * alpha_v)
-    for i in range(out.shape[0]):
-        dg, s, ci, co = _ggx_dg_directions(
-            lx[i], ly[i], lz[i], vx[i], vy[i], vz[i], u2, v2, inv_u2, inv_v2
-        )
-        cd = min(0.5 * math.sqrt(s), 1.0)
-        col, off = _principled_mix(scale * dg, cd, ci, co, fresnel[i], metallic, rough)
-        if column.shape[0] > 0:
-            column[i], out[i] = col, off
-        else:
-            out[i] = off + base * col
+        lobe = scale * _ggx_dg_anisotropic(
+            tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], factor[i],
+            inv_u2, inv_v2, u2, v2,
+        )  # fmt: skip
+        out[i] = lobe * _fresnel_conductor(cos_d[i], e2_k2, four_e2k2)
     return out
 
 

@@ -221,3 +221,26 @@ def test_directions_off_unit_length_give_the_numpy_values(name):
     params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
     compiled, reference = _both(model, Geometry(wi, wo), params)
     np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["gltf_pbr", "gltf_pbr_anisotropic", "mitsuba_roughconductor",
+     "mitsuba_roughconductor_anisotropic", "mitsuba_principled",
+     "mitsuba_principled_anisotropic", "mitsuba_roughplastic"],
+)  # fmt: skip
+@pytest.mark.parametrize("z", [1e-12, 1e-40, 1e-100])
+def test_directions_just_above_the_horizon_give_the_numpy_values(name, z):
+    """L and V at height ``z`` above the horizon (valid pairs: z > 0), opposite,
+    equal, orthogonal and in between, where N.H, N.L and N.V are clamped and ``|L +
+    V|`` can be as small as ``2 z``: compiled and numpy agree, with no overflow."""
+    model = get_model(name)
+    r = math.sqrt(1.0 - z * z)
+    phi_i = np.radians([0.0, 0.0, 0.0, 30.0, 0.0])
+    phi_o = np.radians([180.0, 0.0, 90.0, 250.0, 179.0])
+    wi = np.stack([r * np.cos(phi_i), r * np.sin(phi_i), np.full(5, z)], axis=1)
+    wo = np.stack([r * np.cos(phi_o), r * np.sin(phi_o), np.full(5, z)], axis=1)
+    params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
+    compiled, reference = _both(model, Geometry(wi, wo), params)
+    assert np.all(np.isfinite(reference))
+    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
