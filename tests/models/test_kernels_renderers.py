@@ -219,8 +219,17 @@ def test_directions_off_unit_length_give_the_numpy_values(name):
     wi = wi * (1.0 + rng.uniform(-9e-7, 9e-7, (wi.shape[0], 1)))
     wo = wo * (1.0 + rng.uniform(-9e-7, 9e-7, (wo.shape[0], 1)))
     params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
-    compiled, reference = _both(model, Geometry(wi, wo), params)
+    geometry = Geometry(wi, wo)
+    compiled, reference = _both(model, geometry, params)
     np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    shape = {p.name: params[p.name] for p in model.shape_params}
+    with kernels.use(True):
+        design = model.design(geometry, shape)
+    with kernels.use(False):
+        expected = model.design(geometry, shape)
+    for got, want in zip((*design.columns, design.offset), (*expected.columns, expected.offset)):
+        if want is not None:
+            np.testing.assert_allclose(got, want, rtol=TOLERANCE, atol=0)
 
 
 @pytest.mark.parametrize(
@@ -244,3 +253,17 @@ def test_directions_just_above_the_horizon_give_the_numpy_values(name, z):
     compiled, reference = _both(model, Geometry(wi, wo), params)
     assert np.all(np.isfinite(reference))
     np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+
+
+def test_unit_directions_decides_which_principled_loop_runs():
+    """The five-array principled loop (G1 from the cosines, exact for unit L and V)
+    runs only where every squared length is within UNIT_ERROR of 1."""
+    from brdffit.kernels.inputs_renderers import UNIT_ERROR, principled_inputs, unit_directions
+
+    wi, wo = hemisphere_pairs(300, seed=37)
+    assert unit_directions(Geometry(wi, wo))
+    assert principled_inputs(Geometry(wi, wo))[0] == "principled_unit"
+    for scale, unit in ((1.0 + 0.1 * UNIT_ERROR, True), (1.0 + 10.0 * UNIT_ERROR, False)):
+        geometry = Geometry(wi, wo * scale)
+        assert unit_directions(geometry) is unit
+        assert principled_inputs(geometry)[0] == ("principled_unit" if unit else "principled")
