@@ -39,7 +39,10 @@ def _ggx_dg_directions(lx, ly, lz, vx, vy, vz, u2, v2, inv_u2, inv_v2):
     s^2 / (pi alpha_u alpha_v Q^2)``, ``Q = c^2 + h_x^2/alpha_u^2 + h_y^2/alpha_v^2``,
     and ``G1(L) = 2 c_L / (c_L + S_L)``, ``S_L = sqrt(c_L^2 + alpha_u^2 l_x^2 + alpha_v^2
     l_y^2)`` (JCGT 3(2), 2014, section 5.4): sums of positive terms, so within
-    rounding of the numpy model's tangent form, with no division but one."""
+    rounding of the numpy model's tangent form, with no division but one (by
+    :func:`~brdffit.kernels.elementary.fast_reciprocal`, whose argument, at least
+    ``4e-60 s^2``, is a normal number for ``|L + V| > 1e-62``: smaller sums need L and
+    V opposite and both within 1e-62 of the horizon)."""
     hx, hy, hz = lx + vx, ly + vy, lz + vz
     s = hx * hx + hy * hy + hz * hz
     c2 = min(max(hz * hz, 1e-20 * s), s)
