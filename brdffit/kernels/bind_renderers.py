@@ -125,6 +125,15 @@ def dielectric_fresnel(geometry, eta: float) -> np.ndarray:
     return last[1]
 
 
+class _Principled(_Coloured):
+    """:class:`_Coloured` whose ``prepare`` also names the loop (the isotropic model
+    has one for directions of unit length, :func:`~.inputs_renderers.unit_directions`)."""
+
+    def run(self, geometry, shape: Mapping, base: float, column: np.ndarray) -> np.ndarray:
+        loop, arrays = self.prepare(geometry, shape)
+        return _loop(loop)(*arrays, *self.shape(shape), base, column, np.empty(geometry.m))
+
+
 def _principled(anisotropic: bool) -> _Coloured:
     """Mitsuba's widths (``principled_alphas``; the square of the isotropic one), then
     metallic and roughness; ``F`` of the index of ``specular`` (``principled_eta``)
@@ -132,7 +141,8 @@ def _principled(anisotropic: bool) -> _Coloured:
 
     def prepare(g, s: Mapping) -> tuple:
         terms = inputs.principled_anisotropic_inputs if anisotropic else inputs.principled_inputs
-        return (*terms(g), dielectric_fresnel(g, principled_eta(float(s["specular"]))))
+        loop, arrays = terms(g)
+        return loop, (*arrays, dielectric_fresnel(g, principled_eta(float(s["specular"]))))
 
     def shape(s: Mapping) -> tuple:
         rough = float(s["roughness"])
@@ -140,8 +150,7 @@ def _principled(anisotropic: bool) -> _Coloured:
         widths = (au, av) if anisotropic else (au * au,)
         return (*widths, float(s["metallic"]), rough)
 
-    loop = "principled_anisotropic" if anisotropic else "principled"
-    return _Coloured(loop, prepare, shape)
+    return _Principled("", prepare, shape)
 
 
 SPECS["mitsuba_principled"] = _principled(False)
@@ -154,28 +163,33 @@ class _Plastic:
     compiled: 8x faster, measured)."""
 
     @staticmethod
-    def _diffuse(geometry, shape: Mapping) -> np.ndarray:
+    def _table(shape: Mapping) -> np.ndarray:
         from .plastic_table import transmittance_table
 
-        alpha, eta = float(shape["alpha"]), float(shape["eta"])
-        table, out = transmittance_table(alpha, eta), np.empty(geometry.m)
-        return _loop("plastic_diffuse")(*inputs.plastic_z(geometry), table, eta, out)
+        return transmittance_table(float(shape["alpha"]), float(shape["eta"]))
 
     @staticmethod
-    def _add_specular(geometry, shape: Mapping, kd: float, ks: float, out: np.ndarray):
+    def _specular(geometry, shape: Mapping) -> tuple:
+        """The specular loop's arrays, then ``alpha^2``."""
         fresnel = dielectric_fresnel(geometry, float(shape["eta"]))
-        alpha2 = float(shape["alpha"]) ** 2
-        return _loop("plastic")(*inputs.plastic_inputs(geometry), fresnel, alpha2, kd, ks, out)
+        return (*inputs.plastic_inputs(geometry), fresnel, float(shape["alpha"]) ** 2)
 
     def design(self, geometry, shape: Mapping) -> Design:
-        specular = self._add_specular(geometry, shape, 0.0, 1.0, np.empty(geometry.m))
-        return Design((self._diffuse(geometry, shape), specular))
+        m, eta = geometry.m, float(shape["eta"])
+        specular = _loop("plastic")(*self._specular(geometry, shape), 1.0, np.empty(m))
+        z = inputs.plastic_z(geometry)
+        diffuse = _loop("plastic_diffuse")(*z, self._table(shape), eta, np.empty(m))
+        return Design((diffuse, specular))
 
     def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray:
         kd, ks = (float(c) for c in coefs)
+        out = np.empty(geometry.m)
         if kd == 0.0:  # the diffuse column is not read: its table need not be built
-            return self._add_specular(geometry, shape, 0.0, ks, np.empty(geometry.m))
-        return self._add_specular(geometry, shape, kd, ks, self._diffuse(geometry, shape))
+            return _loop("plastic")(*self._specular(geometry, shape), ks, out)
+        *arrays, alpha2 = self._specular(geometry, shape)
+        table, eta = self._table(shape), float(shape["eta"])
+        z = inputs.plastic_z(geometry)
+        return _loop("plastic_evaluate")(*z, *arrays, table, eta, alpha2, kd, ks, out)
 
 
 SPECS["mitsuba_roughplastic"] = _Plastic()

@@ -18,12 +18,14 @@ from .inputs import _anisotropic_axes, microfacet_inputs
 __all__ = [
     "conductor_anisotropic_inputs",
     "conductor_inputs",
+    "directions",
     "gltf_anisotropic_inputs",
     "gltf_inputs",
     "plastic_inputs",
     "plastic_z",
     "principled_anisotropic_inputs",
     "principled_inputs",
+    "unit_directions",
 ]
 
 
@@ -41,18 +43,16 @@ def _slopes_of(w: np.ndarray) -> tuple:
 
 
 def gltf_anisotropic_inputs(g: Geometry) -> tuple:
-    """glTF with KHR_materials_anisotropy: the slopes ``x/z``, ``y/z`` of H, of L and
-    of V (rotated in the loop; L's and V's with ``z`` clamped as the numpy model's
-    ``Lambda``), ``1 / (4 (N.L)(N.V) H_z^4)`` (``H_z`` unclamped: the numpy ``D`` takes
-    H's components) and ``(1 - V.H)^5``. Eight arrays: the ninth of H's three
-    components made the loop wait for memory (measured: 175 against 390 M pairs/s
-    with the same arrays passed several times)."""
+    """glTF with KHR_materials_anisotropy: ``x`` and ``y`` of H, the slopes ``x/z``,
+    ``y/z`` of L and of V (rotated in the loop; ``z`` clamped as the numpy model's
+    ``Lambda``), ``1 / (4 (N.L)(N.V))`` and ``(1 - V.H)^5``; cached. Eight arrays: a
+    ninth, H's ``z``, made the loop wait for memory (measured: 175 against 390 M
+    pairs/s with the same arrays passed several times); the loop computes ``H_z^2``."""
 
     def compute():
-        hz2 = g.half[:, 2] ** 2
-        factor = inv_4_cos(g) / (hz2 * hz2)
-        slopes = (*_slopes_of(g.half), *_slopes_of(g.wi), *_slopes_of(g.wo))
-        return (*slopes, factor, microfacet_inputs(g)[4])
+        h = tuple(np.ascontiguousarray(g.half[:, j]) for j in range(2))
+        slopes = (*_slopes_of(g.wi), *_slopes_of(g.wo))
+        return (*h, *slopes, inv_4_cos(g), microfacet_inputs(g)[4])
 
     return g.cached("kernels.gltf_anisotropic", compute)
 
@@ -61,6 +61,17 @@ def conductor_inputs(g: Geometry) -> tuple:
     """Mitsuba's roughconductor: GGX's ``tan^2`` of H, L, V and its factor, and ``V.H``
     (the exact conductor Fresnel is computed in the loop)."""
     return (*microfacet_inputs(g)[:4], g.cos_d)
+
+
+def directions(g: Geometry) -> tuple:
+    """The components ``x, y, z`` of L, then of V, each contiguous; cached. The
+    anisotropic principled loop computes H, its clamped cosine, the ``tan^2`` axes and ``V.H``
+    from them (:func:`~brdffit.kernels.loops_principled._ggx_dg_directions`): six
+    arrays read instead of ten, and that loop is limited by memory traffic."""
+    return g.cached(
+        "kernels.directions",
+        lambda: tuple(np.ascontiguousarray(w[:, j]) for w in (g.wi, g.wo) for j in range(3)),
+    )
 
 
 def conductor_anisotropic_inputs(g: Geometry) -> tuple:
@@ -83,14 +94,37 @@ def plastic_inputs(g: Geometry) -> tuple:
     return microfacet_inputs(g)[:4]
 
 
+#: How far from 1 the squared length of every direction may be for the principled
+#: loop that takes ``tan^2 = (1 - c^2) / c^2`` (:func:`unit_directions`).
+UNIT_ERROR = 1e-13
+
+
+def unit_directions(g: Geometry) -> bool:
+    """Whether every ``|L|^2`` and ``|V|^2`` is within :data:`UNIT_ERROR` of 1; cached.
+
+    Directions are accepted within 1e-6 of unit length and not normalised. Smith's
+    ``G1`` from the cosine alone, ``2 c / (c + sqrt(c^2 (1 - alpha^2) + alpha^2))``,
+    puts ``1 - c^2`` for ``x^2 + y^2``: ``alpha^2 (1 - |L|^2)`` off inside a square root
+    of at least ``alpha^2``, so within ``UNIT_ERROR / 2`` relative of the numpy ``G1``
+    here, but 1e-6 off at the accepted limit."""
+
+    def compute():
+        worst = max(float(np.max(np.abs(np.einsum("ij,ij->i", w, w) - 1.0))) for w in (g.wi, g.wo))
+        return worst <= UNIT_ERROR
+
+    return g.cached("kernels.unit_directions", compute)
+
+
 def principled_inputs(g: Geometry) -> tuple:
-    """Mitsuba's principled: ``N.H``, ``sin^2(theta_h)``, ``N.L``, ``N.V`` and ``V.H``
-    (its GGX from cosines, see :func:`~brdffit.kernels.loops_renderers.principled`;
-    Schlick's weights of the last three are computed in the loop)."""
-    return g.cos_h, g.sin2_h, g.cos_i, g.cos_o, g.cos_d
+    """Mitsuba's principled, with the name of its loop: for :func:`unit_directions`,
+    ``tan^2(theta_h)``, ``N.L``, ``N.V``, ``V.H`` (``principled_unit``, five arrays); else
+    ``tan^2`` of H, L and V (GGX's, cached), ``N.L``, ``N.V`` and ``V.H``. Schlick's
+    weights of the cosines are computed in the loop."""
+    if unit_directions(g):
+        return "principled_unit", (g.tan2_h, g.cos_i, g.cos_o, g.cos_d)
+    return "principled", (*microfacet_inputs(g)[:3], g.cos_i, g.cos_o, g.cos_d)
 
 
 def principled_anisotropic_inputs(g: Geometry) -> tuple:
-    """Anisotropic principled: the six ``tan^2`` axes of H, L and V, GGX's factor
-    ``1 / (4 (N.L)(N.V) (N.H)^4)``, then ``V.H``, ``N.L`` and ``N.V``."""
-    return (*_anisotropic_axes(g), microfacet_inputs(g)[3], g.cos_d, g.cos_i, g.cos_o)
+    """Anisotropic principled, with the name of its loop: :func:`directions`."""
+    return "principled_anisotropic", directions(g)

@@ -20,11 +20,48 @@ from functools import lru_cache
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
-from ..models.mitsuba_plastic import _cosines, _half_rule
+from ..models.mitsuba_plastic import TABLE_SIZE, _cosines, _half_rule
 from ._compile import FLAGS, jit
 
-__all__ = ["transmittance_table"]
+__all__ = ["TABLE_SIZE", "local_table", "transmittance_table"]
+
+
+_SIZE_ERROR = f"table: a transmittance table must hold TABLE_SIZE = {TABLE_SIZE} values"
+
+
+@intrinsic
+def _stack_doubles(typingctx):
+    """A pointer to :data:`TABLE_SIZE` float64 on the stack of the calling function
+    (an ``alloca`` in its entry block, so one per call, not one per iteration)."""
+
+    def codegen(context, builder, signature, args):
+        return cgutils.alloca_once(builder, ir.DoubleType(), size=TABLE_SIZE)
+
+    return types.CPointer(types.float64)(), codegen
+
+
+@numba.njit(inline="always", fastmath=FLAGS)
+def local_table(table):
+    """A copy of the transmittance ``table`` on the caller's stack.
+
+    A loop that looks values up in an argument array at computed indices and writes
+    another argument array is not vectorised: LLVM cannot bound the indices, so it
+    cannot check at run time that the two arrays do not overlap ("cannot identify
+    array bounds"). A copy on the stack, whose address never leaves the function,
+    cannot overlap any argument, and the look-ups become gathers (measured: the
+    diffuse column 3.3 -> 1.6 ns a pair). ``table`` must hold :data:`TABLE_SIZE`
+    values (checked)."""
+    if table.shape[0] != TABLE_SIZE:
+        raise ValueError(_SIZE_ERROR)
+    local = numba.carray(_stack_doubles(), TABLE_SIZE)
+    for j in range(TABLE_SIZE):
+        local[j] = table[j]
+    return local
 
 
 @numba.njit(inline="always", fastmath=FLAGS)

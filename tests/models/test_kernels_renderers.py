@@ -158,3 +158,112 @@ def test_renderer_loops_that_fail_to_import_leave_the_numpy_formulas(monkeypatch
         assert not kernels.wanted(10**6, modules=("loops_renderers",))
     with kernels.use(True):
         np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
+
+
+def test_the_roughplastic_loops_refuse_a_table_of_another_size():
+    """The loops copy the table to a stack array of TABLE_SIZE values (so that their
+    look-ups vectorise): a table of another size is refused, not read or written past
+    its end."""
+    from brdffit.kernels import loops_renderers as loops
+    from brdffit.kernels.plastic_table import TABLE_SIZE, transmittance_table
+
+    z = np.linspace(0.01, 1.0, 50)
+    table = transmittance_table(0.2, 1.5)
+    good = loops.plastic_diffuse(z, z, table, 1.5, np.empty(50))
+    assert table.shape == (TABLE_SIZE,) and np.all(good > 0.0)
+    for size in (TABLE_SIZE - 1, TABLE_SIZE + 1):
+        with pytest.raises(ValueError, match=f"TABLE_SIZE = {TABLE_SIZE} values"):
+            loops.plastic_diffuse(z, z, np.ones(size), 1.5, np.empty(50))
+        with pytest.raises(ValueError, match=f"TABLE_SIZE = {TABLE_SIZE} values"):
+            loops.plastic_evaluate(z, z, z, z, z, z, z, np.ones(size), 1.5, 0.04, 0.5, 1.0,
+                                   np.empty(50))  # fmt: skip
+
+
+def test_fast_reciprocal_is_accurate_to_rounding_over_the_normal_range():
+    """elementary.fast_reciprocal (float32 division of the mantissa, exponent from the
+    bits, two Newton steps) within 4 ulps of 1/x from the smallest normal double to
+    2^1021, far beyond float32's range, where a float32 estimate of x alone fails."""
+    import sys
+
+    import numba
+
+    from brdffit.kernels._compile import FLAGS
+    from brdffit.kernels.elementary import fast_reciprocal
+
+    @numba.njit(fastmath=FLAGS, error_model="numpy")
+    def run(x, out):
+        for i in range(x.shape[0]):
+            out[i] = fast_reciprocal(x[i])
+        return out
+
+    tiny = sys.float_info.min
+    x = np.concatenate([np.geomspace(tiny, 2.0**1021, 400_001), [1.0, 2.0, 3.0, 1e-40, 1e40]])
+    rel = np.abs(run(x, np.empty_like(x)) * x - 1.0)
+    assert rel.max() < 4 * np.finfo(float).eps, rel.max()
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["gltf_pbr", "gltf_pbr_anisotropic", "mitsuba_roughconductor",
+     "mitsuba_roughconductor_anisotropic", "mitsuba_principled",
+     "mitsuba_principled_anisotropic", "mitsuba_roughplastic"],
+)  # fmt: skip
+def test_directions_off_unit_length_give_the_numpy_values(name):
+    """Directions are accepted within 1e-6 of unit length and not normalised; the
+    anisotropic loops compute H and the cosines from the components of L and V, so
+    they must not assume unit length: compiled and numpy agree there too (with
+    eta != 0 so that the conductor's Fresnel factor, from V.H, is computed)."""
+    model = get_model(name)
+    wi, wo = hemisphere_pairs(1500, seed=36)
+    rng = np.random.default_rng(36)
+    wi = wi * (1.0 + rng.uniform(-9e-7, 9e-7, (wi.shape[0], 1)))
+    wo = wo * (1.0 + rng.uniform(-9e-7, 9e-7, (wo.shape[0], 1)))
+    params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
+    geometry = Geometry(wi, wo)
+    compiled, reference = _both(model, geometry, params)
+    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    shape = {p.name: params[p.name] for p in model.shape_params}
+    with kernels.use(True):
+        design = model.design(geometry, shape)
+    with kernels.use(False):
+        expected = model.design(geometry, shape)
+    for got, want in zip((*design.columns, design.offset), (*expected.columns, expected.offset)):
+        if want is not None:
+            np.testing.assert_allclose(got, want, rtol=TOLERANCE, atol=0)
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["gltf_pbr", "gltf_pbr_anisotropic", "mitsuba_roughconductor",
+     "mitsuba_roughconductor_anisotropic", "mitsuba_principled",
+     "mitsuba_principled_anisotropic", "mitsuba_roughplastic"],
+)  # fmt: skip
+@pytest.mark.parametrize("z", [1e-12, 1e-40, 1e-100])
+def test_directions_just_above_the_horizon_give_the_numpy_values(name, z):
+    """L and V at height ``z`` above the horizon (valid pairs: z > 0), opposite,
+    equal, orthogonal and in between, where N.H, N.L and N.V are clamped and ``|L +
+    V|`` can be as small as ``2 z``: compiled and numpy agree, with no overflow."""
+    model = get_model(name)
+    r = math.sqrt(1.0 - z * z)
+    phi_i = np.radians([0.0, 0.0, 0.0, 30.0, 0.0])
+    phi_o = np.radians([180.0, 0.0, 90.0, 250.0, 179.0])
+    wi = np.stack([r * np.cos(phi_i), r * np.sin(phi_i), np.full(5, z)], axis=1)
+    wo = np.stack([r * np.cos(phi_o), r * np.sin(phi_o), np.full(5, z)], axis=1)
+    params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
+    compiled, reference = _both(model, Geometry(wi, wo), params)
+    assert np.all(np.isfinite(reference))
+    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+
+
+def test_unit_directions_decides_which_principled_loop_runs():
+    """The five-array principled loop (G1 from the cosines, exact for unit L and V)
+    runs only where every squared length is within UNIT_ERROR of 1."""
+    from brdffit.kernels.inputs_renderers import UNIT_ERROR, principled_inputs, unit_directions
+
+    wi, wo = hemisphere_pairs(300, seed=37)
+    assert unit_directions(Geometry(wi, wo))
+    assert principled_inputs(Geometry(wi, wo))[0] == "principled_unit"
+    for scale, unit in ((1.0 + 0.1 * UNIT_ERROR, True), (1.0 + 10.0 * UNIT_ERROR, False)):
+        geometry = Geometry(wi, wo * scale)
+        assert unit_directions(geometry) is unit
+        assert principled_inputs(geometry)[0] == ("principled_unit" if unit else "principled")
