@@ -67,7 +67,7 @@ def solve_log(problem, shape, columns, offset, constraints) -> Solution | None:
     if (
         problem.loss.name != "log"
         or offset is not None
-        or not kernels.wanted(len(problem.y), modules=("loss_log",))
+        or not kernels.wanted(len(problem.y), modules=("loss_log", "loops"))  # + moments
     ):
         return None
     arrays = [k for k, col in enumerate(columns) if np.ndim(col)]
