@@ -163,10 +163,15 @@ class Geometry:
         return np.sqrt(square, out=square)
 
     @cached_property
+    def _half_scale(self) -> np.ndarray:
+        """``|L + V|``, at least 1e-300: what the half vector's components divide by."""
+        return np.maximum(self._half_norm, 1e-300)
+
+    @cached_property
     def half(self) -> np.ndarray:
         """Unit half vector H = (L + V) / |L + V|, shape (M, 3)."""
         total = self.wi + self.wo
-        total /= np.maximum(self._half_norm, 1e-300)[:, None]
+        total /= self._half_scale[:, None]
         return total
 
     def _half_component(self, axis: int) -> np.ndarray:
@@ -176,7 +181,7 @@ class Geometry:
         26 MB and 5-10 ms)."""
         if "half" in self.__dict__:
             return self.half[:, axis]
-        return (self.wi[:, axis] + self.wo[:, axis]) / np.maximum(self._half_norm, 1e-300)
+        return (self.wi[:, axis] + self.wo[:, axis]) / self._half_scale
 
     @cached_property
     def cos_h(self) -> np.ndarray:
