@@ -64,6 +64,8 @@ def _keys(data) -> tuple[np.ndarray, np.ndarray]:
     return np.negative(cos_h, out=cos_h), np.multiply(length, -0.5, out=length)
 
 
+#: Samples per block where a check forms the noise model's sigma (16,384: 384 KB of RGB).
+BLOCK = 16_384
 #: Key of the two sample orders in :meth:`brdffit.data.geometry.Geometry.cached`.
 ORDERS_KEY = "misfit.orders"
 #: The runs test takes at most about this many samples: of more, every ``k``-th in
@@ -223,9 +225,15 @@ def standardised(problem, params, noise) -> tuple[np.ndarray, np.ndarray]:
     pred = problem.predict(params)
     u = problem.user_weights
     keep = np.ones(data.n, dtype=bool) if u is None else np.asarray(u) > 0
-    if noise is not None or (data.sigma is not None and problem.loss.name == "chi2"):
-        z = np.subtract(pred, y)  # divided in place: one array of the data's size less
-        z /= noise.sigma(pred) if noise is not None else np.asarray(data.sigma)
+    if noise is not None:
+        z = np.subtract(pred, y)  # divided in place by blocks: no sigma of the data's size
+        for start in range(0, len(z), BLOCK):
+            rows = slice(start, start + BLOCK)
+            z[rows] /= noise.sigma(pred[rows])
+        return z, keep
+    if data.sigma is not None and problem.loss.name == "chi2":
+        z = np.subtract(pred, y)
+        z /= np.asarray(data.sigma)
         return z, keep
     from .losses import LossContext
 
@@ -297,17 +305,21 @@ def _minus_two_log_likelihood(problem, params, noise, z, loss: float) -> float |
     sigma."""
     if noise is not None:
         pred = problem.predict(params)
-        # ln(2 pi s^2) + z^2 in one array (a new one from sigma), in place: the same
-        # operations as written out, one temporary of the data's size instead of five
-        terms = noise.sigma(pred)
-        np.square(terms, out=terms)
-        terms *= 2 * np.pi
-        np.log(terms, out=terms)
-        terms += np.square(z)
         u = problem.user_weights
-        if u is not None:
-            terms *= np.asarray(u)[:, None]
-        return float(terms.sum())
+        total = 0.0
+        # ln(2 pi s^2) + z^2 by blocks of samples, in place: no array of the data's
+        # size (a MERL file's check peaked on five of them)
+        for start in range(0, len(pred), BLOCK):
+            rows = slice(start, start + BLOCK)
+            terms = noise.sigma(pred[rows])
+            np.square(terms, out=terms)
+            terms *= 2 * np.pi
+            np.log(terms, out=terms)
+            terms += np.square(z[rows])
+            if u is not None:
+                terms *= np.asarray(u)[rows, None]
+            total += float(terms.sum())
+        return total
     if problem.loss.name == "chi2":
         return None
     n = problem.data.values.size
