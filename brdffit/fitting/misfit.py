@@ -69,11 +69,10 @@ BLOCK = 16_384
 #: Key of the two sample orders in :meth:`brdffit.data.geometry.Geometry.cached`.
 ORDERS_KEY = "misfit.orders"
 #: The runs test takes at most about this many samples: of more, every ``k``-th in
-#: the data's order, the smallest ``k`` that is enough (a systematic sample). Its
-#: two sorts are most of the test's cost (on a whole MERL file, 1.1 M samples, 50-90
-#: ms of a fit of 0.4 s); a runs test on 300,000 samples still finds a misfit whose
-#: runs ``z`` on all the samples exceeds the threshold about twice over (``z`` grows
-#: with the square root of the samples), and a MERL file's misfits reach ``z`` of
+#: the data's order, the smallest ``k`` enough (a systematic sample). Its two sorts
+#: were most of its cost (50-90 ms of a 0.4 s fit of a whole MERL file); on 300,000
+#: samples it still finds a misfit whose runs ``z`` on all of them is twice the
+#: threshold (``z`` grows as the root of the samples); a MERL file's misfits reach
 #: several hundred. The reduced chi-square takes every sample.
 RUNS_SAMPLES = 300_000
 
@@ -232,9 +231,7 @@ def standardised(problem, params, noise) -> tuple[np.ndarray, np.ndarray]:
             z[rows] /= noise.sigma(pred[rows])
         return z, keep
     if data.sigma is not None and problem.loss.name == "chi2":
-        z = np.subtract(pred, y)
-        z /= np.asarray(data.sigma)
-        return z, keep
+        return (pred - y) / np.asarray(data.sigma), keep
     from .losses import LossContext
 
     ctx = LossContext(cos_i=np.maximum(data.wi[:, 2], 0.0), y=y, sigma=data.sigma, weights=None)
