@@ -59,7 +59,7 @@ def fit_erfcx(degree: int = 26, points: int = 400) -> tuple:
     nodes = np.cos(np.pi * (np.arange(points) + 0.5) / points)
     t = ERFCX_T0 + (1.0 - ERFCX_T0) * (nodes + 1.0) / 2.0
     x = ERFCX_K * (1.0 + t) / (1.0 - t)
-    fitted = np.polynomial.Chebyshev.fit(t, erfcx(x) * x / ERFCX_K, degree, domain=[-0.6, 1.0])
+    fitted = np.polynomial.Chebyshev.fit(t, erfcx(x) * x / ERFCX_K, degree, domain=[ERFCX_T0, 1.0])
     return tuple(float(c) for c in fitted.coef)
 
 

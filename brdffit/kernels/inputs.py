@@ -71,15 +71,20 @@ def _theta_h2(g: Geometry) -> np.ndarray:
     return g.cached("kernels.theta_h2", lambda: g.theta_h**2)
 
 
+def _microfacet_factor(g: Geometry) -> np.ndarray:
+    """``1 / (4 (N.L)(N.V) (N.H)^4)``, of the microfacet loops (not cached: each caches
+    it in its own form)."""
+    c2 = g.cos_h * g.cos_h
+    return 1.0 / (4.0 * g.cos_i * g.cos_o * c2 * c2)
+
+
 def microfacet_inputs(g: Geometry) -> tuple:
     """GGX with Smith shadowing: ``tan^2 theta_h``, ``tan^2`` of L and of V,
     ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's ``(1 - V.H)^5``."""
 
     def compute():
-        c2 = g.cos_h * g.cos_h
-        factor = 1.0 / (4.0 * g.cos_i * g.cos_o * c2 * c2)
         tan2_i, tan2_o = _tan2_of(g.wi, g.cos_i), _tan2_of(g.wo, g.cos_o)
-        return g.tan2_h, tan2_i, tan2_o, factor, schlick_weight(g.cos_d)
+        return g.tan2_h, tan2_i, tan2_o, _microfacet_factor(g), schlick_weight(g.cos_d)
 
     return g.cached("kernels.microfacet", compute)
 
@@ -94,11 +99,7 @@ def _cot_of(tan2: np.ndarray) -> np.ndarray:
 def _log_microfacet_factor(g: Geometry) -> np.ndarray:
     """``ln(1 / (4 (N.L)(N.V) (N.H)^4))``, of both Beckmann loops; cached."""
 
-    def compute():
-        c2 = g.cos_h * g.cos_h
-        return np.log(1.0 / (4.0 * g.cos_i * g.cos_o * c2 * c2))
-
-    return g.cached("kernels.log_microfacet_factor", compute)
+    return g.cached("kernels.log_microfacet_factor", lambda: np.log(_microfacet_factor(g)))
 
 
 #: The relative error that float32 inputs add to Beckmann (see :func:`beckmann_inputs`).
@@ -187,10 +188,8 @@ def ggx_anisotropic_inputs(g: Geometry) -> tuple:
     ``D``'s ``tan^2`` stay float64: its ``t^2`` would amplify theirs."""
 
     def compute():
-        c2 = g.cos_h * g.cos_h
-        factor = 1.0 / (4.0 * g.cos_i * g.cos_o * c2 * c2)
         axes = _axes32(g)
-        return (*_h_axes(g), *axes[:4], factor.astype(np.float32), axes[4])
+        return (*_h_axes(g), *axes[:4], _microfacet_factor(g).astype(np.float32), axes[4])
 
     return g.cached("kernels.ggx_anisotropic", compute)
 
