@@ -33,13 +33,12 @@ precision, Numerische Mathematik 18, 1971), ``e = x - (u - 1)`` exactly for
 1e-17 relative.
 
 :func:`fast_exp_short` is :func:`~brdffit.kernels._compile.fast_exp` (the same
-reduction, the same flush below ``exp(-708)``) with two changes that each gave the
-Lafortune loop 12 to 15 % more pairs per second (measured beside each other in one
-run): ``k = round(x / ln 2)`` taken by adding and subtracting ``1.5 * 2^52``, whose
-sum holds ``k`` in its low bits for ``2^k`` (no rounding and conversion
-instructions), and ``exp(r)`` by the polynomial of degree 11 closest to it in
-relative error (:func:`fit_exp_polynomial`, 3.1e-18) instead of the Taylor
-polynomial of degree 13. Its measured relative error is below 3e-16. Everything is
+reduction, ``k = round(x / ln 2)`` by adding and subtracting ``1.5 * 2^52``, the same
+flush below ``exp(-708)``) with ``exp(r)`` by the polynomial of degree 11 closest to
+it in relative error (:func:`fit_exp_polynomial`, 3.1e-18) instead of the Taylor
+polynomial of degree 13: that and the rounding (since taken over by ``fast_exp``)
+each gave the Lafortune loop 12 to 15 % more pairs per second (measured beside each
+other in one run). Its measured relative error is below 3e-16. Everything is
 arithmetic and bit operations on 64-bit integers that AVX2 has, so the loops
 vectorise.
 """
@@ -55,6 +54,7 @@ import numpy as np
 
 # ln 2 in two parts, its inverse and the largest argument: fast_exp's (see its module)
 from ._compile import _EXP_MAX, _LN2_HI, _LN2_LO, _LOG2E, EXP_MIN, FLAGS
+from ._compile import _ROUNDER as _ROUND
 from ._compile import _bits_of_double as _bits
 from ._compile import _double_from_bits as _float
 
@@ -79,10 +79,6 @@ LOG_ZERO = -1e300
 
 _SMALLEST_NORMAL = sys.float_info.min
 _TWO_54 = 2.0**54
-#: ``t = y / ln 2 + _ROUND`` is ``_ROUND + k`` exactly, ``k = round(y / ln 2)``
-#: (``|k| < 2^51``), and its low bits are ``k``: the bits of ``2^k`` are
-#: ``(bits(t) + 1023) << 52`` (the shift drops the bits of ``_ROUND``).
-_ROUND = 1.5 * 2.0**52
 #: The bits of sqrt(1/2) subtracted from those of x and 1023 added back in the
 #: exponent field: ``(bits + _SHIFT) >> 52`` is the biased k of ``x = 2^k m``.
 _SHIFT = 0x3FF0000000000000 - int(np.float64(math.sqrt(0.5)).view(np.int64))
@@ -221,7 +217,9 @@ def fast_log1p(x):
 @numba.njit(inline="always", fastmath=FLAGS)
 def fast_exp_short(x):
     """``exp(x)`` for ``x <= 709`` as :func:`~brdffit.kernels._compile.fast_exp` (0 below
-    ``EXP_MIN``), with ``k`` rounded by :data:`_ROUND` (see the module)."""
+    ``EXP_MIN``). ``t = y / ln 2 + _ROUND`` (``_ROUND = 1.5 * 2^52``) is ``_ROUND + k``
+    exactly, ``k = round(y / ln 2)``, ``|k| < 2^51``, and its low bits are ``k``: the bits
+    of ``2^k`` are ``(bits(t) + 1023) << 52`` (the shift drops the bits of ``_ROUND``)."""
     y = min(max(x, EXP_MIN), _EXP_MAX)
     t = y * _LOG2E + _ROUND
     k = t - _ROUND
