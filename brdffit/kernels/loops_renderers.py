@@ -29,7 +29,6 @@ from ._compile import jit
 from .loops import _twice_fresnel_dielectric
 from .loops_principled import (  # noqa: F401 (the loops bind_renderers looks up here)
     _inline,
-    _schlick,
     principled,
     principled_anisotropic,
     principled_unit,
