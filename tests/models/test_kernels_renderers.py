@@ -21,6 +21,12 @@ pytestmark = NEEDS_KERNELS
 
 #: fast_exp's flush (test_kernels.py): no exponential here, so values agree to rounding.
 TOLERANCE = 1e-12
+#: Every renderer-native model with a compiled form (brdffit.kernels.bind_renderers).
+RENDERER_MODELS = [
+    "gltf_pbr", "gltf_pbr_anisotropic", "mitsuba_roughconductor",
+    "mitsuba_roughconductor_anisotropic", "mitsuba_principled",
+    "mitsuba_principled_anisotropic", "mitsuba_roughplastic",
+]  # fmt: skip
 
 
 def _both(model, geometry, params) -> tuple:
@@ -202,12 +208,7 @@ def test_fast_reciprocal_is_accurate_to_rounding_over_the_normal_range():
     assert rel.max() < 4 * np.finfo(float).eps, rel.max()
 
 
-@pytest.mark.parametrize(
-    "name",
-    ["gltf_pbr", "gltf_pbr_anisotropic", "mitsuba_roughconductor",
-     "mitsuba_roughconductor_anisotropic", "mitsuba_principled",
-     "mitsuba_principled_anisotropic", "mitsuba_roughplastic"],
-)  # fmt: skip
+@pytest.mark.parametrize("name", RENDERER_MODELS)
 def test_directions_off_unit_length_give_the_numpy_values(name):
     """Directions are accepted within 1e-6 of unit length and not normalised; the
     anisotropic loops compute H and the cosines from the components of L and V, so
@@ -232,12 +233,7 @@ def test_directions_off_unit_length_give_the_numpy_values(name):
             np.testing.assert_allclose(got, want, rtol=TOLERANCE, atol=0)
 
 
-@pytest.mark.parametrize(
-    "name",
-    ["gltf_pbr", "gltf_pbr_anisotropic", "mitsuba_roughconductor",
-     "mitsuba_roughconductor_anisotropic", "mitsuba_principled",
-     "mitsuba_principled_anisotropic", "mitsuba_roughplastic"],
-)  # fmt: skip
+@pytest.mark.parametrize("name", RENDERER_MODELS)
 @pytest.mark.parametrize("z", [1e-12, 1e-40, 1e-100])
 def test_directions_just_above_the_horizon_give_the_numpy_values(name, z):
     """L and V at height ``z`` above the horizon (valid pairs: z > 0), opposite,
