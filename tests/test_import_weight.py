@@ -20,14 +20,18 @@ ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("scipy.stats", "scipy.optimize", "scipy.interpolate", "scipy.special", "emcee", "numba")
 
 
+def _printed(code: str):
+    """The JSON value on the last line ``code`` prints, run in a fresh interpreter."""
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def _loaded(code: str) -> list:
     """The HEAVY modules loaded after running ``code`` in a fresh interpreter."""
     report = f"print(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))"
-    probe = f"{code}\nimport json, sys\n{report}"
-    out = subprocess.run(
-        [sys.executable, "-c", probe], capture_output=True, text=True, check=True, cwd=ROOT
-    )
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return _printed(f"{code}\nimport json, sys\n{report}")
 
 
 def test_importing_brdffit_loads_none_of_the_heavy_modules():
@@ -83,9 +87,5 @@ def test_a_compiled_fit_imports_only_the_loops_its_model_needs():
         "print(json.dumps(sorted(m for m in sys.modules if m.startswith('brdffit.kernels.loops')"
         " or m == 'brdffit.kernels.plastic_table')))"
     )
-    probe = f"import json\n{code}"
-    out = subprocess.run(
-        [sys.executable, "-c", probe], capture_output=True, text=True, check=True, cwd=ROOT
-    )
-    loaded = json.loads(out.stdout.strip().splitlines()[-1])
+    loaded = _printed(f"import json\n{code}")
     assert loaded == ["brdffit.kernels.loops", "brdffit.kernels.loops_sums"]
