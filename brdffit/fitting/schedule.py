@@ -68,7 +68,8 @@ FINE_FTOL = 1e-10
 #: The share of the subsample allocated by Neyman's rule (the rest in proportion;
 #: all of it by Neyman took 171 full-data evaluations in the module's measurement).
 NEYMAN = 0.5
-#: Pairs (at most) on which the spread of the targets in each cell is estimated.
+#: The spread of the targets in each cell is estimated on every k-th pair, k the
+#: valid pairs // this (at least 1): on fewer than twice this many pairs.
 SPREAD_SAMPLES = 100_000
 
 
@@ -99,7 +100,7 @@ def _cells(geometry) -> np.ndarray:
 
 def _spread(cell: np.ndarray, targets) -> np.ndarray:
     """Per cell, the standard deviation of the targets (root of the sum over channels
-    of their variances), estimated on a systematic sample of at most
+    of their variances), estimated on a systematic sample of fewer than twice
     :data:`SPREAD_SAMPLES` pairs; 0 where fewer than two pairs of a cell are in it."""
     cells = BINS * BINS
     step = max(1, len(cell) // SPREAD_SAMPLES)
