@@ -23,6 +23,7 @@ __all__ = [
     "BECKMANN_ANISOTROPIC_F32_ERROR",
     "BECKMANN_F32_ERROR",
     "COT_MAX",
+    "F32_ERROR",
     "GGX_ANISOTROPIC_F32_ERROR",
     "ashikhmin_shirley_inputs",
     "beckmann_anisotropic_inputs",
@@ -215,6 +216,15 @@ def beckmann_anisotropic_inputs(g: Geometry) -> tuple:
     of its time)."""
     axes = _axes32(g)
     return (*_h_axes(g), *axes[:4], _log_microfacet_factor(g), axes[4])
+
+
+#: Model name -> the relative error its loop's float32 inputs add (the bounds above;
+#: the other loops read float64 only).
+F32_ERROR = {
+    "beckmann": BECKMANN_F32_ERROR,
+    "ggx_anisotropic": GGX_ANISOTROPIC_F32_ERROR,
+    "beckmann_anisotropic": BECKMANN_ANISOTROPIC_F32_ERROR,
+}
 
 
 def ward_inputs(g: Geometry) -> tuple:

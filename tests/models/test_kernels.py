@@ -219,12 +219,7 @@ def _tolerance(name: str) -> float:
     (brdffit.kernels.inputs)."""
     from brdffit.kernels import inputs
 
-    float32 = {
-        "beckmann": inputs.BECKMANN_F32_ERROR,
-        "ggx_anisotropic": inputs.GGX_ANISOTROPIC_F32_ERROR,
-        "beckmann_anisotropic": inputs.BECKMANN_ANISOTROPIC_F32_ERROR,
-    }
-    return 1e-11 + float32.get(name, 0.0)
+    return 1e-11 + inputs.F32_ERROR.get(name, 0.0)
 
 
 @pytest.mark.parametrize("name", kernels.COMPILED_MODELS)

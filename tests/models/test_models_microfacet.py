@@ -168,25 +168,20 @@ TOLERANCE = {
     "beckmann": 2 * smith.MAX_ERROR + 1e-11,
     "beckmann_anisotropic": 2 * smith.MAX_ERROR + 1e-11,
 }
-#: The compiled loops of these read some inputs in float32 (brdffit.kernels.inputs
-#: says which and why), which adds at most this to their relative error.
-FLOAT32_ERROR = {
-    "beckmann": inputs.BECKMANN_F32_ERROR,
-    "ggx_anisotropic": inputs.GGX_ANISOTROPIC_F32_ERROR,
-    "beckmann_anisotropic": inputs.BECKMANN_ANISOTROPIC_F32_ERROR,
-}
 
 
 def float32_error(name: str, path: str) -> float:
-    """What float32 inputs add to ``name`` on the evaluation path ``path``."""
-    return FLOAT32_ERROR.get(name, 0.0) if path == "compiled" else 0.0
+    """What float32 inputs add to ``name`` on the evaluation path ``path``: some
+    compiled loops read some inputs in float32 (brdffit.kernels.inputs says which
+    and why)."""
+    return inputs.F32_ERROR.get(name, 0.0) if path == "compiled" else 0.0
 
 
 @pytest.mark.parametrize("name", sorted(MODELS))
 def test_model_matches_its_scalar_reference(name, evaluation_path):
     """Relative tolerance 1e-11: the exponents reach a few hundred, and one ulp of
     an exponent of 300 is a relative 7e-14 in the value; other factors add a few
-    ulps. The Beckmann models and float32 inputs: see TOLERANCE, FLOAT32_ERROR."""
+    ulps. The Beckmann models and float32 inputs: see TOLERANCE, float32_error."""
     model = MODELS[name]
     rtol = TOLERANCE.get(name, 1e-11) + float32_error(name, evaluation_path)
     wi = np.array([direction(t, p) for t, p, _, _ in PAIRS])
