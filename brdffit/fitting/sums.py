@@ -57,13 +57,13 @@ def loss_sums(pred: np.ndarray, ctx: LossContext) -> dict:
     y = np.asarray(ctx.y, dtype=float)
     if pred.ndim == 1:
         pred, y = pred[:, None], y.reshape(len(y), -1)
+    if kernels.wanted(len(y), modules=("loops_sums",)):  # samples, as models count pairs
+        return _compiled(pred, y, ctx, names)
     whole = _BlockContext(**{f.name: getattr(ctx, f.name) for f in fields(LossContext)},
                           whole_scale=ctx.y_scale if "relative" in names else None)  # fmt: skip
     per_sample = [f.name for f in fields(LossContext)
                   if isinstance(getattr(ctx, f.name), np.ndarray)
                   and getattr(ctx, f.name).shape[:1] == y.shape[:1]]  # fmt: skip
-    if kernels.wanted(len(y), modules=("loops_sums",)):  # samples, as models count pairs
-        return _compiled(pred, y, ctx, names)
     totals = dict.fromkeys([*names, "rss"], 0.0)
     for start in range(0, len(y), BLOCK):
         block = slice(start, start + BLOCK)
