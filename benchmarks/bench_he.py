@@ -1,6 +1,6 @@
 """Evaluation cost of the He-Torrance-Sillion-Greenberg model, on one core.
 
-Two tables, from the same random direction pairs over the upper hemisphere:
+Three tables, from the same random direction pairs over the upper hemisphere:
 
 1. Throughput of ``he`` (prepared geometry, as in a fit) at its default
    parameters with 1, 3 and 31 wavelengths, by its compiled loop
@@ -42,6 +42,8 @@ WAVELENGTHS = {1: [550.0], 3: [450.0, 550.0, 650.0], 31: list(np.arange(400.0, 7
 #: sigma0 in micrometres at 550 nm: smooth (g < 1), intermediate (g ~ 10), rough (g ~ 1e3).
 SURFACES = {"smooth": 0.02, "default": 0.18, "rough": 2.0}
 TOLERANCES = (1e-3, SERIES_TOLERANCE, 1e-9)
+#: The compiled loop's module: the model asks for it at every size (brdffit.models.wave).
+LOOPS = ("loops_he",)
 
 
 def throughput_table(wi, wo, repeats: int) -> None:
@@ -61,7 +63,7 @@ def throughput_table(wi, wo, repeats: int) -> None:
     for count, wavelengths in WAVELENGTHS.items():
         params = {**HE.defaults(), "wavelength": wavelengths}
         for path, on in (("compiled", None), ("numpy", False)):
-            if on is None and not kernels.wanted(geometry.m):
+            if on is None and not kernels.wanted(geometry.m, 1, LOOPS):
                 continue
             with kernels.use(on):
                 seconds = bench_evaluate.median_seconds(
@@ -95,7 +97,7 @@ def parts_table(wi, wo, repeats: int) -> None:
         ("numpy", "series over m", lambda: dd_series(g, a)),
         ("numpy", "whole evaluation", lambda: _numpy_evaluation(geometry, params)),
     ]
-    if kernels.wanted(geometry.m):
+    if kernels.wanted(geometry.m, 1, LOOPS):
         from brdffit.kernels import loops_he
 
         values = np.array([shape["sigma0"], shape["tau"], shape["eta"], shape["k"], 1e-6])
@@ -119,7 +121,7 @@ def _numpy_evaluation(geometry, params):
 
 def series_table(wi, wo, repeats: int) -> None:
     geometry = Geometry(wi, wo)
-    compiled = kernels.wanted(geometry.m)
+    compiled = kernels.wanted(geometry.m, 1, LOOPS)
     print(
         "| surface | sigma0 (um) | median g | max g | tolerance | mean terms | max terms "
         "| ms | ns per element | compiled ns per element | max error / peak |"
