@@ -152,7 +152,9 @@ class Search:
         if answer is False:
             self.stopped = STOPPED
 
-    def run(self, algorithm: str, x0, budget: int, stage: str, step=None, ftol=POLISH_FTOL):
+    def run(
+        self, algorithm: str, x0, budget: int, stage: str, step=None, ftol=POLISH_FTOL
+    ) -> int | None:
         """Run one nlopt stage; return nlopt's result code (None if it could not start).
         ``step``: a local algorithm's initial step, as a share of each range; ``ftol``:
         its relative tolerance on the loss."""
