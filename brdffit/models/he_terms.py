@@ -197,7 +197,6 @@ def dd_series(g, a, tolerance: float = SERIES_TOLERANCE, count_terms: bool = Fal
     g, a = np.broadcast_arrays(np.asarray(g, dtype=float), np.asarray(a, dtype=float))
     shape = g.shape
     g, a = g.ravel(), a.ravel()
-
     total = np.zeros(g.size)
     counts = np.zeros(g.size, dtype=np.int64)
     todo = np.flatnonzero(~series_negligible(g, a, tolerance))
@@ -217,10 +216,10 @@ _CHUNK = 1 << 15
 
 def _series_chunk(g: np.ndarray, a: np.ndarray, tolerance: float):
     """:func:`dd_series` on a flat chunk; returns the sums and the term counts."""
-    total = np.zeros(g.size)
-    counts = np.zeros(g.size, dtype=np.int64)
     from scipy.special import gammaln  # here: scipy.special takes 0.4 s to import
 
+    total = np.zeros(g.size)
+    counts = np.zeros(g.size, dtype=np.int64)
     m = series_lower_start(g, tolerance)
     with np.errstate(divide="ignore"):
         p = np.exp(m * np.log(g) - g - gammaln(m + 1.0))
