@@ -181,8 +181,14 @@ def _profile(u, ur2, gn, relative_c: float, p_min: float):
 
 def _thinned(*arrays):
     """The arrays, or every k-th of their values when they hold over :data:`MAX_VALUES`."""
-    step = max(-(-arrays[0].size // MAX_VALUES), 1)
+    step = _step(arrays[0].size)
     return arrays if step == 1 else tuple(a[::step] for a in arrays)
+
+
+def _step(size: int) -> int:
+    """The ``k`` of :func:`_thinned` for ``size`` values: the smallest that keeps at most
+    :data:`MAX_VALUES` (:func:`_systematic_sample` reads the same values)."""
+    return max(-(-size // MAX_VALUES), 1)
 
 
 def _round_noise(problem, found) -> tuple:
@@ -213,7 +219,7 @@ def _systematic_sample(y, pred, valid, w):
         return None  # NaN fails the comparisons; squares of |y - pred| < 2e150 are finite
     rows = np.arange(y.shape[0]) if valid is None else np.flatnonzero(valid)
     c = y.shape[1]
-    step = max(-(-rows.size * c // MAX_VALUES), 1)
+    step = _step(rows.size * c)
     flat = np.arange(0, rows.size * c, step)
     index, channel = rows[flat // c], flat % c
     f = pred[index, channel]
