@@ -1,19 +1,20 @@
 """Compiled kernels: the prepared evaluation of the common models in one fused loop.
 
 The numpy models (:mod:`brdffit.models`) evaluate a formula as a sequence of array
-operations, each with its temporary array. The loops of
-:mod:`brdffit.kernels.loops` (and :mod:`brdffit.kernels.loops_microfacet`), compiled
-by numba, compute the same formula pair by
-pair in one pass over a few cached parameter-free inputs, which is what a fit does
-thousands of times. :func:`install` binds them to the registered models in place
-of their design functions; the numpy design stays as the reference and as the
-fallback when numba is not installed or the kernels are switched off:
+operations, each with its temporary array. The loops of the ``loops*`` modules of
+this package (:mod:`brdffit.kernels.loops` and its siblings), compiled by numba,
+compute the same formula pair by pair in one pass over a few cached parameter-free
+inputs, which is what a fit does thousands of times. :func:`install` binds them to
+the registered models in place of their design functions; the numpy design stays
+as the reference and as the fallback when numba is not installed or the kernels
+are switched off:
 
 - by default they run on geometries of at least :data:`MIN_PAIRS` direction pairs:
   below that a fit is short anyway, and importing numba and loading the compiled
   loops (0.5 s of CPU, ``benchmarks/bench_cold_start.py --first-fit``) would cost a
   small fit more than it saves, so small fits run exactly as without numba (and
-  never import it);
+  never import it); a model may set its own size (``he``'s series repays the load
+  at every size, :mod:`brdffit.models.wave`);
 - the environment variable ``BRDFFIT_KERNELS=0`` switches them off for a process,
   ``BRDFFIT_KERNELS=1`` on for every size;
 - ``with brdffit.kernels.use(False):`` (or ``use(True)``) does the same for a block
