@@ -162,8 +162,8 @@ def _modules(name: str) -> tuple:
     spec = SPECS[name]
     if isinstance(spec, _Lobe):
         return (spec.loops,)
-    if name == "mitsuba_roughplastic":
-        return ("loops_renderers", "plastic_table")
+    if hasattr(spec, "modules"):  # a renderer-native form with a table of its own
+        return spec.modules
     return ("loops_renderers",) if name in _RENDERER_SPECS else ("loops",)
 
 

@@ -162,6 +162,9 @@ class _Plastic:
     of ``(alpha, eta)`` from :mod:`brdffit.kernels.plastic_table` (the numpy model's,
     compiled: 8x faster, measured)."""
 
+    #: The loop modules it imports (:data:`brdffit.kernels.bind.MODULES`).
+    modules = ("loops_renderers", "plastic_table")
+
     @staticmethod
     def _table(shape: Mapping) -> np.ndarray:
         from .plastic_table import transmittance_table
