@@ -42,31 +42,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import FitError
+from .channels import abs_max_by_channel
 
-__all__ = ["LOSSES", "Loss", "LossContext", "abs_max_by_channel", "get_loss"]
-
-#: Rows folded into one row by :func:`abs_max_by_channel`.
-_FOLD = 128
-
-
-def abs_max_by_channel(a: np.ndarray) -> np.ndarray:
-    """``np.abs(a).max(axis=0)`` of an (M, C) array, NaN where a channel has one,
-    without numpy's slow reduction over the outer axis of a narrow array (the inner
-    loop of that reduction has C = 3 elements: 25-60 ms on a MERL file's values).
-    The rows are folded by :data:`_FOLD` into rows of ``_FOLD * C`` elements, whose
-    maxima are then folded back: the same value (a maximum does not round)."""
-    a = np.asarray(a, dtype=float)
-    if a.ndim != 2 or a.shape[0] < 2 * _FOLD or not a.flags.c_contiguous:
-        return np.abs(a).max(axis=0)
-    m, c = a.shape
-    head = m - m % _FOLD
-    folded = a[:head].reshape(-1, _FOLD * c)
-    high = folded.max(axis=0).reshape(_FOLD, c).max(axis=0)
-    low = folded.min(axis=0).reshape(_FOLD, c).min(axis=0)
-    if head < m:
-        high = np.maximum(high, a[head:].max(axis=0))
-        low = np.minimum(low, a[head:].min(axis=0))
-    return np.maximum(high, -low)
+__all__ = ["LOSSES", "Loss", "LossContext", "get_loss"]
 
 
 @dataclass(frozen=True)

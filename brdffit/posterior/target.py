@@ -68,7 +68,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import FitError
-from ..fitting.losses import LossContext, abs_max_by_channel
+from ..fitting.channels import abs_max_by_channel
+from ..fitting.losses import LossContext
 from .design import batched_design, batches_agree, dense, looped_design
 from .truncnorm import LOG_2PI, draw_box_gaussian, log_mass
 

@@ -4,7 +4,6 @@ against scipy's BVLS and SLSQP and an exact enumeration of active sets."""
 from __future__ import annotations
 
 import itertools
-import math
 
 import numpy as np
 import pytest
@@ -203,18 +202,3 @@ def test_the_answer_is_deterministic():
     first = solve_bounded(normal, lower, upper, (rows, bounds))
     again = solve_bounded(normal, lower, upper, (rows, bounds))
     assert all(np.array_equal(u, v) for u, v in zip(first, again))
-
-
-@pytest.mark.parametrize("rows", [3, 255, 256, 1000, 40_001])
-def test_dot_by_channel_is_the_einsum(rows):
-    from brdffit.fitting.linear import dot_by_channel
-
-    rng = np.random.default_rng(rows)
-    a, b = rng.normal(size=(rows, 3)), rng.normal(size=(rows, 3))
-    got = dot_by_channel(a, b)
-    exact = np.array([math.fsum(a[:, c] * b[:, c]) for c in range(3)])
-    np.testing.assert_allclose(got, exact, rtol=1e-12, atol=1e-12 * np.abs(a * b).sum())
-    strided = rng.normal(size=(rows, 6))[:, ::2]
-    np.testing.assert_array_equal(
-        dot_by_channel(strided, strided), np.einsum("mc,mc->c", strided, strided)
-    )

@@ -1,9 +1,13 @@
-"""The losses' per-channel scale: the folded maximum equals numpy's reduction."""
+"""Per-channel reductions (brdffit.fitting.channels) equal numpy's, and the losses'
+per-channel scale uses them."""
+
+import math
 
 import numpy as np
 import pytest
 
-from brdffit.fitting.losses import LossContext, abs_max_by_channel
+from brdffit.fitting.channels import abs_max_by_channel, dot_by_channel
+from brdffit.fitting.losses import LossContext
 
 
 @pytest.mark.parametrize("rows", [1, 7, 255, 256, 257, 1000, 100_003])
@@ -34,3 +38,16 @@ def test_y_scale_uses_it():
     ctx = LossContext(cos_i=np.ones(5000), y=y, sigma=None, weights=None)
     expected = np.maximum(np.abs(y).max(axis=0), 1e-300)
     np.testing.assert_array_equal(ctx.y_scale, expected)
+
+
+@pytest.mark.parametrize("rows", [3, 255, 256, 1000, 40_001])
+def test_dot_by_channel_is_the_einsum(rows):
+    rng = np.random.default_rng(rows)
+    a, b = rng.normal(size=(rows, 3)), rng.normal(size=(rows, 3))
+    got = dot_by_channel(a, b)
+    exact = np.array([math.fsum(a[:, c] * b[:, c]) for c in range(3)])
+    np.testing.assert_allclose(got, exact, rtol=1e-12, atol=1e-12 * np.abs(a * b).sum())
+    strided = rng.normal(size=(rows, 6))[:, ::2]
+    np.testing.assert_array_equal(
+        dot_by_channel(strided, strided), np.einsum("mc,mc->c", strided, strided)
+    )
