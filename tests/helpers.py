@@ -141,3 +141,26 @@ def run_cli(capsys, *argv):
     code = main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def rgb_data(model: str, n: int, seed: int, noise: float, grey: bool = False):
+    """Three channels of ``model``'s defaults, its linear parameters scaled by 1, 0.7
+    and 0.4 per channel (``grey``: the same noisy values in every channel), with
+    relative ``noise``."""
+    params = get_model(model).defaults()
+    if grey:
+        one = make_data(model, params, n=n, noise=noise, seed=seed)
+        values = np.repeat(np.reshape(one.values, (n, 1)), 3, axis=1)
+        return Measurements(one.wi, one.wo, values, channels=["r", "g", "b"])
+    for p in get_model(model).linear_params:
+        params[p.name] = params[p.name] * np.array([1.0, 0.7, 0.4])
+    return make_data(model, params, n=n, noise=noise, seed=seed, channels=["r", "g", "b"])
+
+
+def solve_both(problem, x) -> tuple:
+    """``problem.solve(x)`` with the compiled kernels, then with numpy."""
+    with kernels.use(True):
+        compiled = problem.solve(x)
+    with kernels.use(False):
+        plain = problem.solve(x)
+    return compiled, plain

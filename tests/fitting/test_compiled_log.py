@@ -5,7 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import NEEDS_KERNELS, compiled_for_every_size, make_data  # noqa: F401 (the fixture)
+from helpers import (  # noqa: F401 (the fixture)
+    NEEDS_KERNELS,
+    compiled_for_every_size,
+    make_data,
+    rgb_data,
+    solve_both,
+)
 
 import brdffit
 from brdffit import kernels
@@ -14,27 +20,6 @@ from brdffit.fitting.problem import Problem
 from brdffit.models import get_model
 
 pytestmark = [NEEDS_KERNELS, pytest.mark.usefixtures("compiled_for_every_size")]
-
-
-def _data(model: str, n: int, seed: int, grey: bool = False):
-    """Three channels: the model's defaults with its linear parameters per channel, or
-    (``grey``) the same noisy values in every channel."""
-    params = get_model(model).defaults()
-    if grey:
-        one = make_data(model, params, n=n, noise=0.05, seed=seed)
-        values = np.repeat(np.reshape(one.values, (n, 1)), 3, axis=1)
-        return brdffit.Measurements(one.wi, one.wo, values, channels=["r", "g", "b"])
-    for p in get_model(model).linear_params:
-        params[p.name] = params[p.name] * np.array([1.0, 0.7, 0.4])
-    return make_data(model, params, n=n, noise=0.05, seed=seed, channels=["r", "g", "b"])
-
-
-def _solve_both(problem: Problem, x):
-    with kernels.use(True):
-        compiled = problem.solve(x)
-    with kernels.use(False):
-        numpy = problem.solve(x)
-    return compiled, numpy
 
 
 @pytest.mark.parametrize(
@@ -49,14 +34,14 @@ def _solve_both(problem: Problem, x):
 def test_compiled_log_passes_give_the_numpy_solution(model, weights, grey):
     """Same coefficients and loss at 6 random shapes, with and without sample weights,
     with weights per channel (colour) and the same in every channel (grey data)."""
-    data = _data(model, 3000, 5, grey)
+    data = rgb_data(model, 3000, 5, 0.05, grey)
     w = None if weights is None else np.random.default_rng(2).uniform(0.2, 3.0, data.n)
     problem = Problem(data, model, loss="log", weights=w)
     assert problem.w_lin.ndim == (1 if grey else 2)
     rng = np.random.default_rng(9)
     for _ in range(6):
         x = rng.uniform(problem.lower, problem.upper)
-        compiled, numpy = _solve_both(problem, x)
+        compiled, numpy = solve_both(problem, x)
         np.testing.assert_allclose(compiled.coefs, numpy.coefs, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(compiled.loss, numpy.loss, rtol=1e-11)
         # the loss is the exact loss of the coefficients found (formed residuals)
@@ -77,7 +62,7 @@ def test_compiled_log_passes_keep_the_energy_rows():
     bound = 0
     for _ in range(4):
         x = rng.uniform(problem.lower, problem.upper)
-        compiled, numpy = _solve_both(problem, x)
+        compiled, numpy = solve_both(problem, x)
         np.testing.assert_allclose(compiled.coefs, numpy.coefs, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(compiled.loss, numpy.loss, rtol=1e-11)
         bound += compiled.loss > free.solve(x).loss * (1 + 1e-6)  # the rows bind
@@ -85,7 +70,7 @@ def test_compiled_log_passes_keep_the_energy_rows():
 
 
 def test_the_compiled_passes_are_taken_only_where_they_apply():
-    data = _data("ggx", 2000, 1)
+    data = rgb_data("ggx", 2000, 1, 0.05)
     problem = Problem(data, "ggx", loss="log")
     m = len(problem.y)
     cols = [1.0 / np.pi, np.linspace(0.0, 2.0, m)]
@@ -135,7 +120,7 @@ def test_log_sums_are_the_sums_of_the_formed_terms():
 
 def test_a_log_fit_is_the_numpy_fit():
     """A whole fit with the log loss, compiled and numpy: the same parameters."""
-    data = _data("ggx", 4000, 8)
+    data = rgb_data("ggx", 4000, 8, 0.05)
     with kernels.use(True):
         compiled = brdffit.fit(data, "ggx", loss="log")
     with kernels.use(False):
@@ -150,7 +135,7 @@ def test_a_design_that_is_not_finite_is_refused_as_by_the_numpy_passes(bad):
     """The loops assume finite values (fast-math): a lobe that is not finite, or whose
     square is not, must not give a finite loss; it is refused by the bounded solve, as
     in the numpy passes (Problem.solve turns that into BAD_LOSS)."""
-    problem = Problem(_data("ggx", 2000, 1), "ggx", loss="log")
+    problem = Problem(rgb_data("ggx", 2000, 1, 0.05), "ggx", loss="log")
     lobe = np.linspace(0.0, 2.0, len(problem.y))
     lobe[5] = bad
     with pytest.raises(np.linalg.LinAlgError, match="not finite"), np.errstate(all="ignore"):

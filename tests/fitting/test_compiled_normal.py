@@ -5,7 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import NEEDS_KERNELS, compiled_for_every_size, make_data  # noqa: F401 (the fixture)
+from helpers import (  # noqa: F401 (the fixture)
+    NEEDS_KERNELS,
+    compiled_for_every_size,
+    make_data,
+    rgb_data,
+    solve_both,
+)
 
 from brdffit import kernels
 from brdffit.fitting.problem import Problem
@@ -13,30 +19,12 @@ from brdffit.fitting.problem import Problem
 pytestmark = [NEEDS_KERNELS, pytest.mark.usefixtures("compiled_for_every_size")]
 
 
-def _data(model: str, n: int, seed: int):
-    """Three channels: the model's defaults with its linear parameters per channel."""
-    from brdffit.models import get_model
-
-    params = get_model(model).defaults()
-    for p in get_model(model).linear_params:
-        params[p.name] = params[p.name] * np.array([1.0, 0.7, 0.4])
-    return make_data(model, params, n=n, noise=0.02, seed=seed, channels=["r", "g", "b"])
-
-
-def _solve_both(problem: Problem, x):
-    with kernels.use(True):
-        compiled = problem.solve(x)
-    with kernels.use(False):
-        stacked = problem.solve(x)
-    return compiled, stacked
-
-
 def _assert_the_same_solutions(problem: Problem, seed: int):
     """Compiled and stacked normal equations give the same solution at 5 random shapes."""
     rng = np.random.default_rng(seed)
     for _ in range(5):
         x = rng.uniform(problem.lower, problem.upper)
-        compiled, stacked = _solve_both(problem, x)
+        compiled, stacked = solve_both(problem, x)
         np.testing.assert_allclose(compiled.coefs, stacked.coefs, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(compiled.loss, stacked.loss, rtol=1e-9)
 
@@ -46,7 +34,7 @@ def _assert_the_same_solutions(problem: Problem, seed: int):
     [("ggx", None), ("cook_torrance", "samples"), ("blinn", None), ("lambert", None)],
 )
 def test_compiled_normal_equations_give_the_stacked_solution(model, weights):
-    data = _data(model, 3000, 5)
+    data = rgb_data(model, 3000, 5, 0.02)
     w = None if weights is None else np.random.default_rng(2).uniform(0.2, 3.0, data.n)
     problem = Problem(data, model, weights=w)
     _assert_the_same_solutions(problem, 9)
@@ -57,7 +45,7 @@ def test_weights_per_channel_give_the_stacked_solution(model):
     """The mixed loss weighs every value by its own sigma: (M, C) weights. Their normal
     equations are now built by the compiled pass too (they fell back to the stacked
     design, 5 ms a step on a MERL file)."""
-    data = _data(model, 3000, 6)
+    data = rgb_data(model, 3000, 6, 0.02)
     noise = np.random.default_rng(4).uniform(0.01, 0.2, (data.n, 3))
     problem = Problem(data, model, loss="mixed", noise_sigma=noise)
     assert problem.w_lin.shape == (data.n, 3)
@@ -68,7 +56,7 @@ def test_weights_per_channel_give_the_stacked_solution(model):
 
 
 def test_the_compiled_pass_is_taken_only_where_it_applies():
-    data = _data("ggx", 2000, 1)
+    data = rgb_data("ggx", 2000, 1, 0.02)
     m = data.n
     assert Problem(data, "ggx")._compiled_normal([1.0, np.ones(m)], None) is not None
     # a non-quadratic loss, an offset, or two array columns: the stacked design
