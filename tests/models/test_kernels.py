@@ -315,20 +315,25 @@ def test_the_environment_switches_the_kernels_off():
         assert not kernels.wanted(kernels.MIN_PAIRS - 1)
 
 
-def test_a_numba_that_fails_to_import_leaves_the_numpy_formulas(monkeypatch):
+@pytest.mark.parametrize(("name", "module"), [("ggx", "loops"), ("gltf_pbr", "loops_renderers")])
+def test_a_loop_module_that_fails_to_import_leaves_the_numpy_formulas(monkeypatch, name, module):
     """A broken numba (one that does not support the installed numpy, say) warns once
-    and the models evaluate as without it."""
-    model = get_model("ggx")
+    and the models whose loops the module holds evaluate as without it, even with the
+    kernels switched on for every size. (Before, kernels.wanted() did not try
+    loops_renderers: the kernels stayed on and the first evaluation raised.)"""
+    model = get_model(name)
     wi, wo = hemisphere_pairs(200, seed=4)
     with kernels.use(False):
         expected = model.evaluate(wi, wo, model.defaults())
     monkeypatch.delitem(kernels._state, "loaded", raising=False)
-    monkeypatch.delattr(kernels, "loops", raising=False)
-    monkeypatch.setitem(sys.modules, "brdffit.kernels.loops", None)  # import fails
+    monkeypatch.delattr(kernels, module, raising=False)
+    monkeypatch.setitem(sys.modules, f"brdffit.kernels.{module}", None)  # import fails
     with pytest.warns(RuntimeWarning, match="compiled kernels are off"):
-        assert not kernels.wanted(10**6)
-    assert not kernels.wanted(10**6)  # once: no second warning, still off
+        assert not kernels.wanted(10**6, modules=(module,))
+    assert not kernels.wanted(10**6, modules=(module,))  # once: no second warning
     np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
+    with kernels.use(True):
+        np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
 
 
 def _batch_of_shapes(name: str, pairs: int, seed: int, walkers: int):

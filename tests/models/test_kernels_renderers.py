@@ -146,26 +146,6 @@ def test_the_conductor_fresnel_factor_is_exactly_one_where_the_models_skip_it(k)
     assert fresnel_conductor(np.array([1.0]), 0.0, 1e-100)[0] == 0.5
 
 
-def test_renderer_loops_that_fail_to_import_leave_the_numpy_formulas(monkeypatch):
-    """As for the other loops (test_kernels.py): loops_renderers failing to import
-    (numba's errors on import, say) warns once and the renderer-native models run
-    their numpy formulas. Before, kernels.wanted() did not try that module, so the
-    kernels stayed on and the first evaluation raised the ImportError."""
-    import sys
-
-    model = get_model("gltf_pbr")
-    wi, wo = hemisphere_pairs(300, seed=35)
-    with kernels.use(False):
-        expected = model.evaluate(wi, wo, model.defaults())
-    monkeypatch.delitem(kernels._state, "loaded", raising=False)
-    monkeypatch.delattr(kernels, "loops_renderers", raising=False)
-    monkeypatch.setitem(sys.modules, "brdffit.kernels.loops_renderers", None)  # import fails
-    with pytest.warns(RuntimeWarning, match="compiled kernels are off"):
-        assert not kernels.wanted(10**6, modules=("loops_renderers",))
-    with kernels.use(True):
-        np.testing.assert_array_equal(model.evaluate(wi, wo, model.defaults()), expected)
-
-
 def test_the_roughplastic_loops_refuse_a_table_of_another_size():
     """The loops copy the table to a stack array of TABLE_SIZE values (so that their
     look-ups vectorise): a table of another size is refused, not read or written past
