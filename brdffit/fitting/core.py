@@ -101,6 +101,7 @@ def fit(data, model, **options) -> FitResult:
     problem, found, code, noise = reweight(first, code, opts, t0)
     # An energy-conserving fit: checked, and polished again where albedo passes 1.
     problem, found, code, energy = enforce_energy(problem, found, code, opts, t0)
+    problem.let_go()  # the search's inputs go before the checks form their arrays
     result, pred = _result(problem, found, code, opts, perf_counter() - t0, energy)
     result = replace(result, **assess(problem, result, noise))
     # The fitted prediction (shared by the metrics and the misfit verdict) and the

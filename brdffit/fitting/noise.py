@@ -272,6 +272,7 @@ def reweight(first: list, code, options, t0: float):
         if found.stopped:
             break
         pred, noise = _round_noise(problem, found)
+        problem.let_go()  # its search is done: its inputs go before the next round's
         if used is not None and noise.close_to(used, TOLERANCE):
             break
         remaining = options.max_evals - found.n_evals

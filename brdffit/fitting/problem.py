@@ -17,18 +17,17 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .. import kernels
 from ..errors import FitError, ParameterError
-from ..kernels import normal as kernels_normal
 from ..models import get_model
 from ..words import plural
-from .linear import Normal, weighted_target
+from .linear import weighted_target
 from .losses import LossContext, get_loss
 from .solve import (
     BAD_LOSS,
     Solution,
     as_2d,
-    compact_weights,
+    compiled_normal,
+    linear_terms,
     solve_linear,
     solve_log,
     solve_normal,
@@ -190,16 +189,28 @@ class Problem:
         self.invalid_loss = 0.0
         if self.invalid_y is not None and self.invalid_y.size:
             self.invalid_loss = self._invalid_contribution(y_all, sigma, w, valid, noise)
-        if self.loss.name == "l2":  # t(f) = f: the weights are the user's, the target y
-            u = self.ctx.weights
-            self.w_lin = None if u is None or np.all(u == 1.0) else u
-            self.z_lin = self.y
-        else:
-            self.w_lin, self.z_lin = compact_weights(*self.loss.linearised(self.y, self.ctx))
-        # For quadratic losses the target never changes: W y and y'Wy are reused
-        # by every evaluation of a model without an offset.
-        self._weighted = weighted_target(self.z_lin, self.w_lin) if self.loss.linear else None
+        self.let_go()
+
+    def let_go(self) -> None:
+        """Forget what the solve builds from the data for the search (the linearised
+        weights and targets and their copies for the compiled passes: up to 100 MB on
+        a MERL file), once the search is done; a later :meth:`solve` builds them
+        again. Not while other threads solve."""
+        self._linearised = None
+        self._prepared = None
         self.log_inputs = None  # the compiled log passes' inputs (solve.solve_log)
+
+    def linearisation(self) -> tuple:
+        """The loss's linearisation at the data: weights (M,), (M, C) or None (all
+        ones), targets (M, C), and for a quadratic loss ``W y`` and ``y'Wy``, reused by
+        every solve of a model without an offset (its target never changes; else
+        None). Made at the first call and kept until :meth:`let_go`."""
+        state = self._linearised
+        if state is None:
+            w, z = linear_terms(self)
+            weighted = weighted_target(z, w) if self.loss.linear else None
+            state = self._linearised = (w, z, weighted)  # one assignment: thread-safe
+        return state
 
     def _noise_sigma(self, noise_sigma, shape):
         """The noise model's sigma (N, C) for a loss that needs one (ones to start), else None."""
@@ -277,7 +288,7 @@ class Problem:
         free = [cols[i] for i in self.coef_index]
         constraints = self._constraints_for(shape)
         raw = [design.columns[i] for i in self.coef_index]
-        normal = self._compiled_normal(raw, offset)
+        normal = compiled_normal(self, raw, offset)
         try:
             if normal is not None:
                 return solve_normal(self, shape, normal, constraints)
@@ -303,16 +314,6 @@ class Problem:
             [np.broadcast_to(b0, (c, len(b0))), np.broadcast_to(bound, (c, rows.shape[0]))], axis=1
         )
         return np.vstack([a0, rows]), b
-
-    def _compiled_normal(self, free, offset):
-        """The normal equations in one compiled pass over the columns, without stacking
-        them (:mod:`brdffit.kernels.normal`), where that applies (a quadratic loss, no
-        offset, one array column); else None."""
-        if offset is not None or self._weighted is None or not kernels.wanted(self.geometry.m):
-            return None
-        return kernels_normal.normal_equations(
-            free, self.z_lin, self.w_lin, self._weighted, Normal
-        )
 
     def _full(self, col):
         """A column as an (M,) array; constant columns are cached per value."""

@@ -43,10 +43,11 @@ def solve_linear(problem, shape, a, offset, constraints) -> Solution:
     if problem.loss.linear:
         # For quadratic losses the weighted residual sum of squares of the
         # linear solve is the loss: no prediction needs to be formed.
-        coefs, rss = least_squares(problem, a, offset, problem.w_lin, problem.z_lin, constraints)
+        w, z, _ = problem.linearisation()
+        coefs, rss = least_squares(problem, a, offset, w, z, constraints)
         loss = (float(rss.sum()) + problem.invalid_loss) / problem.norm
     else:
-        w, z = problem.w_lin, problem.z_lin
+        w, z, _ = problem.linearisation()
         for _ in range(NONLINEAR_PASSES):
             coefs, _ = least_squares(problem, a, offset, w, z, constraints)
             pred = _predict(a, offset, coefs, *problem.y.shape)
@@ -77,10 +78,8 @@ def solve_log(problem, shape, columns, offset, constraints) -> Solution | None:
     from ..kernels import normal as kernels_normal
 
     lobe = np.ascontiguousarray(columns[arrays[0]], dtype=float)
-    cos_i, ty_t, u, weighted = _log_inputs(problem)
-    normal = kernels_normal.normal_equations(
-        columns, problem.z_lin, problem.w_lin, weighted, Normal
-    )
+    cos_i, ty_t, u, first, yy = _log_inputs(problem)
+    normal = kernels_normal.from_prepared(columns, first, yy, Normal)
     constant = np.array([0.0 if np.ndim(col) else float(col) for col in columns])
     for i in range(NONLINEAR_PASSES):
         coefs, _ = solve_bounded(normal, problem.coef_lower, problem.coef_upper, constraints)
@@ -95,7 +94,8 @@ def solve_log(problem, shape, columns, offset, constraints) -> Solution | None:
 def _log_inputs(problem) -> tuple:
     """What every compiled log pass of ``problem`` reads, made once per problem:
     cos(theta_i) (M,), the transformed data (C, M), the sample weights (M,) (ones
-    without) and the weighted targets of the first pass."""
+    without), and the first pass's inputs and ``y'Wy`` (:func:`first_pass`: the
+    linearisation at the data)."""
     if problem.log_inputs is None:
         ctx = problem.ctx
         m = len(ctx.cos_i)
@@ -103,9 +103,55 @@ def _log_inputs(problem) -> tuple:
             np.ascontiguousarray(ctx.cos_i, dtype=float),
             np.ascontiguousarray(problem.loss.target(ctx).T, dtype=float),
             np.ones(m) if ctx.weights is None else np.ascontiguousarray(ctx.weights, dtype=float),
-            weighted_target(problem.z_lin, problem.w_lin),
+            *first_pass(problem),
         )
     return problem.log_inputs
+
+
+def linear_terms(problem) -> tuple:
+    """Weights (M,), (M, C) or None and targets (M, C) of ``problem``'s loss
+    linearised at its data."""
+    if problem.loss.name == "l2":  # t(f) = f: the weights are the user's, the target y
+        u = problem.ctx.weights
+        return None if u is None or np.all(u == 1.0) else u, problem.y
+    return compact_weights(*problem.loss.linearised(problem.y, problem.ctx))
+
+
+def first_pass(problem) -> tuple:
+    """What the compiled normal equations read of the linearisation at the data
+    (:func:`brdffit.kernels.normal.prepare_weights` and ``prepare_targets``) and its
+    ``y'Wy``, made once per problem (until :meth:`Problem.let_go`); the
+    linearisation's own (M, C) arrays are not kept (50 to 75 MB on a MERL file
+    besides these copies)."""
+    from ..kernels import normal as kernels_normal
+
+    state = problem._prepared
+    if state is None:
+        w, z = linear_terms(problem)
+        wy, yy = weighted_target(z, w)
+        del z
+        s0, w = kernels_normal.prepare_weights(w)
+        t0, wy_t = kernels_normal.prepare_targets(wy)
+        del wy
+        state = problem._prepared = ((s0, w, t0, wy_t), yy)  # one assignment
+    return state
+
+
+def compiled_normal(problem, free, offset):
+    """The normal equations of ``problem``'s quadratic loss in one compiled pass over
+    the columns ``free``, without stacking them (:mod:`brdffit.kernels.normal`),
+    where that applies (no offset, one array column, the kernels wanted); else None."""
+    from ..kernels import normal as kernels_normal
+
+    if (
+        offset is not None
+        or not problem.loss.linear
+        or not kernels.wanted(problem.geometry.m)
+        or kernels_normal.lobe_column(free) is None
+    ):
+        return None
+    prepared, yy = first_pass(problem)
+    return kernels_normal.from_prepared(free, prepared, yy, Normal)
 
 
 def solve_normal(problem, shape, normal, constraints) -> Solution:
@@ -120,7 +166,8 @@ def least_squares(problem, a, offset, w, z, constraints):
     with weights ``w``, and their weighted residual sums of squares (C,)."""
     c = z.shape[1]
     target = z if offset is None else z - offset
-    reuse = problem._weighted if (offset is None and z is problem.z_lin) else None
+    _, z_lin, weighted = problem.linearisation()
+    reuse = weighted if (offset is None and z is z_lin) else None
     if a is None:
         _, yy = reuse if reuse is not None else weighted_target(target, w)
         return np.zeros((c, 0)), yy

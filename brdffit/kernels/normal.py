@@ -18,11 +18,9 @@ root of the number of samples at worst).
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
-__all__ = ["assemble", "normal_equations"]
+__all__ = ["assemble", "from_prepared", "lobe_column", "prepare_targets", "prepare_weights"]
 
 
 def _loops():
@@ -31,57 +29,52 @@ def _loops():
     return loops
 
 
-#: One entry, the problem being fitted: weak references to its weights (None when
-#: unweighted) and weighted targets, and the values derived from them.
-_constant_cache: list = []
-
-
-def _constants(w, wy) -> tuple:
-    """``S0``, ``T0``, the weighted targets transposed to (C, M) and, for weights per
-    channel (M, C), the weights transposed (else None), contiguous, for the loops'
-    per-channel sums; computed once per (weights, targets) (a fit solves the same
-    targets thousands of times). The cache refers to the arrays weakly, so it does not
-    keep a finished problem's arrays alive."""
-    for ref_w, ref_wy, values in _constant_cache:
-        if ref_wy() is wy and (w is None if ref_w is None else ref_w() is w):
-            return values
-    # The per-channel sums from the transposed copies: numpy sums an (M, C) array's
-    # columns one row at a time (32 ms on a MERL file's targets, 2 ms on a row each).
+def prepare_weights(w) -> tuple:
+    """``S0`` and the weights as the loops read them, from ``w`` (None, (M,) or
+    (M, C)): (M,) as they are, (M, C) transposed to (C, M) and contiguous, None as
+    an empty array. Made once per problem (a fit solves the same targets thousands
+    of times); ``w`` is not needed after it."""
     if w is None:
-        s0, w_t = float(wy.shape[0]), None
-    elif w.ndim == 1:
-        s0, w_t = float(np.sum(w)), None
-    else:
-        w_t = np.ascontiguousarray(w.T, dtype=float)
-        s0 = w_t.sum(axis=1)
+        return None, np.empty(0)
+    if w.ndim == 1:
+        return float(np.sum(w)), np.ascontiguousarray(w, dtype=float)
+    w_t = np.ascontiguousarray(w.T, dtype=float)
+    return w_t.sum(axis=1), w_t
+
+
+def prepare_targets(wy) -> tuple:
+    """``T0`` and the weighted targets ``wy`` (M, C) transposed to (C, M), contiguous
+    (numpy sums an (M, C) array's columns one row at a time: 32 ms on a MERL file's
+    targets, 2 ms on a row each); ``wy`` is not needed after it."""
     wy_t = np.ascontiguousarray(wy.T, dtype=float)
-    values = (s0, wy_t.sum(axis=1), wy_t, w_t)
-    _constant_cache[:] = [(None if w is None else weakref.ref(w), weakref.ref(wy), values)]
-    weakref.finalize(wy, _constant_cache.clear)  # the copies go with the targets
-    return values
+    return wy_t.sum(axis=1), wy_t
 
 
-def normal_equations(columns: list, y: np.ndarray, w, weighted, normal_class):
+def from_prepared(columns: list, prepared: tuple, yy, normal_class):
     """``normal_class(gram (C, K, K), rhs (C, K), yy (C,))`` from ``columns`` (K items,
-    each a float or an (M,) array, at most one array), targets ``y`` (M, C), weights
-    ``w`` (None, (M,) or (M, C): the ``mixed`` loss weighs every value by its own
-    sigma) and ``weighted = (W y, y^T W y)``; None when the columns are not of that
-    form (then the caller stacks them). With weights per channel every sum is per
-    channel: ``S0_c = sum_m w_mc``, ``S1_c``, ``S2_c`` likewise."""
+    each a float or an (M,) array, exactly one array: :func:`lobe_column`), the
+    weights' and targets' ``prepared = (S0, w, T0, wy_t)`` (:func:`prepare_weights`,
+    :func:`prepare_targets`; ``S0`` None for unit weights) and ``yy = y^T W y`` (C,).
+    With weights per channel (the ``mixed`` and ``log`` losses weigh every value by
+    its own) every sum is per channel: ``S0_c = sum_m w_mc``, ``S1_c``, ``S2_c``."""
+    s0, w, t0, wy_t = prepared
+    lobe = lobe_column(columns)
+    if s0 is None:
+        s0 = float(len(lobe))
+    if w.ndim == 1:
+        s1, s2, t1 = _loops().moments(lobe, w, wy_t)
+    else:
+        s1, s2, t1 = _loops().moments_by_channel(lobe, w, wy_t)
+    return assemble(columns, (s0, s1, s2), t0, t1, yy, normal_class)
+
+
+def lobe_column(columns: list):
+    """The one array column (M,) of ``columns``, contiguous; None when they have not
+    exactly one (then the caller stacks them)."""
     arrays = [col for col in columns if np.ndim(col)]
     if len(arrays) != 1 or arrays[0].ndim != 1:
         return None
-    if w is not None and not (w.ndim == 1 or w.shape == y.shape):
-        return None
-    wy, yy = weighted
-    s0, t0, wy_t, w_t = _constants(w, wy)
-    lobe = np.ascontiguousarray(arrays[0], dtype=float)
-    if w_t is None:
-        weights = np.empty(0) if w is None else np.ascontiguousarray(w, dtype=float)
-        s1, s2, t1 = _loops().moments(lobe, weights, wy_t)
-    else:
-        s1, s2, t1 = _loops().moments_by_channel(lobe, w_t, wy_t)
-    return assemble(columns, (s0, s1, s2), t0, t1, yy, normal_class)
+    return np.ascontiguousarray(arrays[0], dtype=float)
 
 
 def assemble(columns: list, s: tuple, t0, t1, yy, normal_class):

@@ -37,7 +37,7 @@ def test_compiled_log_passes_give_the_numpy_solution(model, weights, grey):
     data = rgb_data(model, 3000, 5, 0.05, grey)
     w = None if weights is None else np.random.default_rng(2).uniform(0.2, 3.0, data.n)
     problem = Problem(data, model, loss="log", weights=w)
-    assert problem.w_lin.ndim == (1 if grey else 2)
+    assert problem.linearisation()[0].ndim == (1 if grey else 2)
     rng = np.random.default_rng(9)
     for _ in range(6):
         x = rng.uniform(problem.lower, problem.upper)

@@ -15,6 +15,7 @@ from helpers import (  # noqa: F401 (the fixture)
 
 from brdffit import kernels
 from brdffit.fitting.problem import Problem
+from brdffit.fitting.solve import compiled_normal
 
 pytestmark = [NEEDS_KERNELS, pytest.mark.usefixtures("compiled_for_every_size")]
 
@@ -48,19 +49,19 @@ def test_weights_per_channel_give_the_stacked_solution(model):
     data = rgb_data(model, 3000, 6, 0.02)
     noise = np.random.default_rng(4).uniform(0.01, 0.2, (data.n, 3))
     problem = Problem(data, model, loss="mixed", noise_sigma=noise)
-    assert problem.w_lin.shape == (data.n, 3)
+    assert problem.linearisation()[0].shape == (data.n, 3)
     with kernels.use(True):
         cols = problem.model.design(problem.geometry, problem.shape_from_x(problem.lower))
-        assert problem._compiled_normal(list(cols.columns), None) is not None
+        assert compiled_normal(problem, list(cols.columns), None) is not None
     _assert_the_same_solutions(problem, 10)
 
 
 def test_the_compiled_pass_is_taken_only_where_it_applies():
     data = rgb_data("ggx", 2000, 1, 0.02)
     m = data.n
-    assert Problem(data, "ggx")._compiled_normal([1.0, np.ones(m)], None) is not None
+    assert compiled_normal(Problem(data, "ggx"), [1.0, np.ones(m)], None) is not None
     # a non-quadratic loss, an offset, or two array columns: the stacked design
-    assert Problem(data, "ggx", loss="log")._compiled_normal([1.0, np.ones(m)], None) is None
+    assert compiled_normal(Problem(data, "ggx", loss="log"), [1.0, np.ones(m)], None) is None
     offset = np.zeros((m, 3))
-    assert Problem(data, "ggx")._compiled_normal([1.0, np.ones(m)], offset) is None
-    assert Problem(data, "ggx")._compiled_normal([np.ones(m)] * 2, None) is None
+    assert compiled_normal(Problem(data, "ggx"), [1.0, np.ones(m)], offset) is None
+    assert compiled_normal(Problem(data, "ggx"), [np.ones(m)] * 2, None) is None

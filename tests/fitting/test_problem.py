@@ -112,7 +112,59 @@ def test_the_l2_targets_are_those_of_its_linearisation(weights):
          "varying": np.linspace(0.5, 2.0, ward_data.n)}[weights]  # fmt: skip
     problem = Problem(ward_data, "ward", loss="l2", weights=u)
     w, z = compact_weights(*problem.loss.linearised(problem.y, problem.ctx))
-    assert (problem.w_lin is None) == (w is None) == (weights != "varying")
+    assert (problem.linearisation()[0] is None) == (w is None) == (weights != "varying")
     if w is not None:
-        np.testing.assert_array_equal(problem.w_lin, w)
-    np.testing.assert_array_equal(problem.z_lin, z)
+        np.testing.assert_array_equal(problem.linearisation()[0], w)
+    np.testing.assert_array_equal(problem.linearisation()[1], z)
+
+
+def test_a_problem_makes_its_first_pass_once_and_lets_it_go_after_the_search():
+    """The compiled normal equations' inputs are made once per problem (a fit solves
+    the same targets thousands of times), without keeping the linearisation's own
+    arrays, and go with :meth:`Problem.let_go` (a later solve makes them again)."""
+    data = synthesize("blinn", {"kd": 0.2, "ks": 0.5, "n": 40.0}, noise=0.01, seed=1)
+    problem = Problem(data, "blinn", loss="cosine")
+    first = solve_module.first_pass(problem)
+    assert solve_module.first_pass(problem) is first
+    assert problem._linearised is None  # the (M, C) linearisation itself is not kept
+    problem.let_go()
+    again = solve_module.first_pass(problem)
+    assert again is not first
+    for a, b in zip(first[0] + (first[1],), again[0] + (again[1],)):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("name", ["log", "cbrt", "cosine", "mixed"])
+@pytest.mark.parametrize("weighted", [False, True])
+def test_the_linearisation_in_place_equals_its_formula(name, weighted):
+    """The Gauss-Newton weights and targets, formed in the transform's own arrays,
+    are bit for bit ``dt^2 u`` and ``ref - (t(ref) - t(y)) / dt``; the prediction,
+    the data and the cached t(y) are left as they were; at the data the target is
+    the data."""
+    from brdffit.fitting.losses import LossContext, get_loss
+
+    rng = np.random.default_rng(3)
+    y = rng.uniform(0.0, 2.0, (500, 3))
+    ctx = LossContext(
+        cos_i=rng.uniform(0.05, 1.0, 500),
+        y=y,
+        sigma=None,
+        weights=rng.uniform(0.5, 2.0, 500) if weighted else None,
+        noise_sigma=rng.uniform(0.1, 1.0, (500, 3)),
+    )
+    loss = get_loss(name)
+    ref = y * rng.uniform(0.8, 1.2, y.shape)
+    before, y_before, target = ref.copy(), y.copy(), loss.target(ctx).copy()
+    w, z = loss.linearised(ref, ctx)
+    dt = np.broadcast_to(loss.derivative(ref, ctx), y.shape)
+    u = 1.0 if ctx.weights is None else ctx.weights[:, None]
+    np.testing.assert_array_equal(w, dt * dt * u)
+    if not loss.linear:
+        np.testing.assert_array_equal(z, ref - (loss.transform(ref, ctx) - target) / dt)
+    np.testing.assert_array_equal(ref, before)
+    np.testing.assert_array_equal(y, y_before)
+    np.testing.assert_array_equal(loss.target(ctx), target)
+    w, z = loss.linearised(ctx.y, ctx)
+    assert z is ctx.y
+    dt = np.broadcast_to(loss.derivative(y, ctx), y.shape)
+    np.testing.assert_array_equal(w, dt * dt * u)

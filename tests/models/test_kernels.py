@@ -368,22 +368,6 @@ def test_a_batch_of_shapes_gives_each_rows_design(name):
         _assert_rows_are_designs(model, geometry, rows, design, _tolerance(name))
 
 
-def test_the_normal_equations_cache_reuses_its_sums_and_lets_the_targets_go():
-    import gc
-    import weakref
-
-    from brdffit.kernels import normal
-
-    w, wy = np.linspace(1.0, 2.0, 50), np.ones((50, 3))
-    first = normal._constants(w, wy)
-    assert normal._constants(w, wy) is first
-    assert normal._constants(None, wy) is not first  # unweighted: other sums
-    gone = weakref.ref(wy)
-    del wy
-    gc.collect()
-    assert gone() is None and normal._constant_cache == []
-
-
 @pytest.mark.parametrize("name", ["ggx_anisotropic", "beckmann_anisotropic"])
 def test_the_anisotropic_numpy_designs_take_a_batch_of_shapes(name):
     """The anisotropic GGX and Beckmann numpy designs (kernels off, under
