@@ -13,6 +13,9 @@ extra to install.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 __all__ = [
     "BrdfFitError",
     "ModelError",
@@ -21,6 +24,7 @@ __all__ = [
     "FormatError",
     "FitError",
     "MissingExtraError",
+    "under_option",
 ]
 
 
@@ -38,6 +42,18 @@ class ModelError(BrdfFitError):
 
 class ParameterError(BrdfFitError):
     """A model parameter that is unknown, missing, not finite or out of bounds."""
+
+
+@contextmanager
+def under_option(option: str, name: str) -> Iterator[None]:
+    """A :class:`ParameterError` of a value given in an option (``fixed``, ``start``)
+    names it there: field ``option.name`` (the option's own path in a request) and
+    the message led by the option, so that one parameter given in two options says
+    which was wrong."""
+    try:
+        yield
+    except ParameterError as exc:
+        raise type(exc)(f"{option}: {exc}", f"{option}.{exc.field or name}") from None
 
 
 class DataError(BrdfFitError):

@@ -27,7 +27,7 @@ from time import perf_counter
 import numpy as np
 
 from ..data.measurements import Measurements
-from ..errors import DataError, FitError
+from ..errors import DataError, FitError, under_option
 from ..models import get_model
 from .energy import enforce_energy
 from .engine import CONVERGED, FitProgress, StopFit, reason, search
@@ -236,8 +236,11 @@ def _start(problem: Problem, start) -> np.ndarray | None:
         )
     if not problem.dim:
         return None
-    return problem.x_from_params({**{p.name: p.default for p in problem.free_shape},
-                                  **(start or {})})  # fmt: skip
+    params = {p.name: p.default for p in problem.free_shape}
+    for name, value in (start or {}).items():
+        with under_option("start", name):
+            params[name] = problem.model.param(name).check(value)
+    return problem.x_from_params(params)
 
 
 def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:

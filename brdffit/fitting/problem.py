@@ -17,7 +17,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..errors import FitError, ParameterError
+from ..errors import FitError, ParameterError, under_option
 from ..models import get_model
 from ..words import plural
 from .linear import weighted_target
@@ -102,13 +102,13 @@ class Problem:
             raise FitError("fixed must be a mapping of parameter name to value", "fixed")
         out = {}
         for name, value in fixed.items():
-            param = self.model.param(name)
-            value = param.check(value)
+            with under_option("fixed", name):
+                value = self.model.param(name).check(value)
             if np.ndim(value) == 1 and np.size(value) not in (1, self.n_channels):
                 raise ParameterError(
-                    f"fixed {name} has {plural(np.size(value), 'value')} but the data have "
+                    f"fixed: {name} has {plural(np.size(value), 'value')} but the data have "
                     f"{plural(self.n_channels, 'channel')}",
-                    name,
+                    f"fixed.{name}",
                 )
             out[name] = value
         return out

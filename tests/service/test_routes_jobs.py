@@ -64,7 +64,7 @@ def test_a_job_failing_at_run_time_says_why_and_can_be_resubmitted(client):
 
 def test_jobs_validate_before_accepting(client):
     body = {"model": "ward", "data": EXAMPLE_DATA, "fixed": {"alpha": 7}}
-    assert_error(client.post("/jobs", json=body), 422, "alpha", "outside")
+    assert_error(client.post("/jobs", json=body), 422, "fixed.alpha", "outside")
     with open(WARD_CSV, "rb") as f:
         answer = client.post(
             "/jobs/file", files={"file": ("ward.csv", f)}, data={"model": "ward", "format": "astm"}
