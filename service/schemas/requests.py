@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 import brdffit
 from brdffit.fitting.losses import LOSSES
+from brdffit.fitting.options import MIN_COARSE_SAMPLES
 
 __all__ = [
     "EXAMPLE_DATA",
@@ -159,6 +160,19 @@ class FitOptions(BaseModel):
     )
     local_algorithm: str = Field(
         FIT["local_algorithm"], max_length=40, description="nlopt local (LN_)."
+    )
+    coarse_above: int = Field(
+        FIT["coarse_above"],
+        ge=0,
+        le=10**9,
+        description="Samples above which the search runs coarse to fine (a stratified "
+        "subsample, then one polish on all the samples).",
+    )
+    coarse_samples: int = Field(
+        FIT["coarse_samples"],
+        ge=MIN_COARSE_SAMPLES,
+        le=10**8,
+        description="Samples of the coarse-to-fine subsample.",
     )
     energy_conserving: bool = Field(
         FIT["energy_conserving"], description="Albedo at most 1 at every incidence."

@@ -12,6 +12,8 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from brdffit.fitting.options import COARSE_ABOVE, COARSE_SAMPLES
+
 from .requests import ExportTarget
 
 __all__ = [
@@ -114,11 +116,13 @@ class OptionsOut(BaseModel):
     timeout: MaybeFloat = Field(description="Seconds the fit could run; null: no limit.")
     seed: int = Field(description="The seed (same seed, same result).")
     coarse_above: int = Field(
-        50_000,
+        COARSE_ABOVE,
         description="Samples above which the search ran coarse to fine (a stratified "
         "subsample, then one polish on all).",
     )
-    coarse_samples: int = Field(20_000, description="Samples of the coarse-to-fine subsample.")
+    coarse_samples: int = Field(
+        COARSE_SAMPLES, description="Samples of the coarse-to-fine subsample."
+    )
     energy_conserving: bool = Field(description="Albedo held at most 1 at every incidence.")
     weights: WeightsOut | None = Field(description="A summary of the weights; null: none.")
 

@@ -19,6 +19,7 @@ from service_helpers import (
 )
 
 import brdffit
+from brdffit.fitting.options import COARSE_ABOVE
 from brdffit_service.schemas import EXAMPLE_DATA
 
 
@@ -123,7 +124,11 @@ def bad_data(**change):
         ({"model": "nope", "data": EXAMPLE_DATA}, "model", "unknown model"),
         ({"model": "blinn", "data": EXAMPLE_DATA, "loss": "chi2"}, "loss", "sigma"),
         ({"model": "blinn", "data": EXAMPLE_DATA, "loss": "l3"}, "loss", ""),
-        ({"model": "blinn", "data": EXAMPLE_DATA, "fixed": {"n": 0}}, "n", "outside"),
+        (
+            {"model": "blinn", "data": EXAMPLE_DATA, "fixed": {"n": 0}},
+            "fixed.n",
+            "fixed: n=0.0 is outside",
+        ),
         ({"model": "blinn", "data": EXAMPLE_DATA, "seed": -1}, "seed", ""),
         ({"model": "blinn", "data": EXAMPLE_DATA, "surprise": 1}, "surprise", ""),
         ({"model": "blinn"}, "data", "required"),
@@ -293,3 +298,52 @@ def test_the_server_log_names_the_clients_file(client, caplog, route):
     assert any(m.startswith("upload 'broken scan.csv'") and "refused" in m for m in logged)
     everything = " ".join(r.getMessage() for r in caplog.records)
     assert tempfile.gettempdir() not in everything and "/tmp/" not in everything
+
+
+def test_fit_takes_the_coarse_to_fine_options(tmp_path):
+    """``coarse_above`` and ``coarse_samples`` reach the library: a fit of 3,000
+    samples (on a server that takes them) runs coarse to fine on 1,000 of them when
+    asked (the library's default starts above 50,000), records both, and a subsample
+    below the least is refused under its field."""
+    from fastapi.testclient import TestClient
+
+    from brdffit_service import Settings, create_app
+
+    settings = Settings(
+        store_path=tmp_path / "jobs.sqlite3",
+        workers=1,
+        fit_workers=0,
+        fit_max_samples=3000,
+        max_body_bytes=10**7,
+        fit_timeout=FIT_TIMEOUT,
+    )
+    rng = np.random.default_rng(5)
+    n = 3000
+    angles = {
+        "theta_i": rng.uniform(0.0, 80.0, n).tolist(),
+        "phi_i": [0.0] * n,
+        "theta_o": rng.uniform(0.0, 80.0, n).tolist(),
+        "phi_o": rng.uniform(0.0, 360.0, n).tolist(),
+    }
+    wi = np.array([direction(t, p) for t, p in zip(angles["theta_i"], angles["phi_i"])])
+    wo = np.array([direction(t, p) for t, p in zip(angles["theta_o"], angles["phi_o"])])
+    truth = {"kd": 0.1, "ks": 0.4, "n": 60.0}
+    values = brdffit.get_model("blinn").evaluate(wi, wo, truth) * rng.normal(1.0, 0.01, n)
+    data = angles | {"values": values.tolist()}
+    body = {"model": "blinn", "data": data, "loss": "l2"}
+    with TestClient(create_app(settings), raise_server_exceptions=False) as client:
+        _coarse_fits(client, body, truth)
+
+
+def _coarse_fits(client, body, truth):
+    staged = client.post("/fit", json=body | {"coarse_above": 1000, "coarse_samples": 1000})
+    assert staged.status_code == 200, staged.text
+    got = staged.json()
+    assert "coarse to fine" in got["message"] and "1,000 of the 3,000" in got["message"]
+    assert got["options"]["coarse_above"] == 1000 and got["options"]["coarse_samples"] == 1000
+    assert got["params"]["n"] == pytest.approx(truth["n"], rel=0.05)
+    plain = client.post("/fit", json=body).json()
+    assert "coarse to fine" not in plain["message"]
+    assert plain["options"]["coarse_above"] == COARSE_ABOVE
+    answer = client.post("/fit", json=body | {"coarse_samples": 10})
+    assert_error(answer, 422, "coarse_samples")
