@@ -137,6 +137,9 @@ def _fit_options(args, fit_progress, post_progress) -> dict:
         energy_conserving=args.energy_conserving,
         progress=fit_progress,
     )
+    for name in ("coarse_above", "coarse_samples"):  # the library's defaults unless given
+        if getattr(args, name) is not None:
+            options[name] = getattr(args, name)
     if args.uncertainty:
         posterior = {"progress": post_progress}
         for name in ("walkers", "max_seconds", "noise"):

@@ -118,6 +118,15 @@ def _add_fit(sub) -> None:
         "degrees (enforced on a grid, checked every 2.5 degrees; the message says "
         "the largest albedo found)",
     )
+    p.add_argument(
+        "--coarse-above",
+        type=int,
+        metavar="N",
+        help="above N samples the search runs coarse to fine (default 50000)",
+    )
+    p.add_argument(
+        "--coarse-samples", type=int, metavar="N", help="the coarse subsample (default 20000)"
+    )
     p.add_argument("--uncertainty", action="store_true", help="also sample the posterior")
     p.add_argument(
         "--every-channel",

@@ -266,6 +266,26 @@ def test_progress_shows_on_a_terminal_and_never_under_json(capsys, monkeypatch):
     capsys.readouterr()
 
 
+def test_fit_passes_the_coarse_to_fine_options(capsys, tmp_path):
+    """--coarse-above and --coarse-samples reach the fit (3,000 samples run coarse to
+    fine on 1,000 when asked; the library's default starts above 50,000); a subsample
+    below the least is refused naming it."""
+    data = brdffit.synthesize(
+        "blinn", {"kd": 0.1, "ks": 0.4, "n": 60.0}, geometry="hemisphere", n=3000, seed=2
+    )
+    path = tmp_path / "blinn3000.csv"
+    brdffit.write(str(path), data)
+    fit = ["fit", path, "--model", "blinn", "--loss", "l2", "--json"]
+    code, out, _ = run_cli(capsys, *fit, "--coarse-above", 1000, "--coarse-samples", 1000)
+    staged = json.loads(out)
+    assert code == 0 and "1,000 of the 3,000 samples" in staged["message"]
+    assert staged["options"]["coarse_samples"] == 1000
+    code, out, _ = run_cli(capsys, *fit)
+    assert code == 0 and "coarse to fine" not in json.loads(out)["message"]
+    code, _, err = run_cli(capsys, *fit, "--coarse-samples", 10)
+    assert code != 0 and "coarse_samples=10" in err
+
+
 # ------------------------------------------------------------------ models
 def test_models_lists_every_model_with_its_axes(capsys):
     code, out, _err = run_cli(capsys, "models")
