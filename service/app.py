@@ -49,6 +49,12 @@ TAGS = [
     {"name": "models", "description": "The registry of reflectance models."},
     {"name": "fit", "description": "Evaluate models and fit them, synchronously."},
     {"name": "jobs", "description": "Long fits and posteriors, stored durably."},
+    {
+        "name": "comparisons",
+        "description": "Several models fitted to one file and ranked on held-out samples.",
+    },
+    {"name": "export", "description": "Fitted materials written for renderers."},
+    {"name": "examples", "description": "The example measurement files of the web page."},
     {"name": "service", "description": "Health of the service."},
 ]
 
