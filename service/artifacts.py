@@ -22,10 +22,9 @@ import logging
 import sqlite3
 import tempfile
 import threading
-from contextlib import closing
 from pathlib import Path
 
-from .store import data_from_bytes
+from .store import connect, data_from_bytes
 
 __all__ = ["NAMES", "fit_plot", "forget", "load", "render", "want"]
 
@@ -52,10 +51,9 @@ _PYPLOT = threading.Lock()
 
 
 def _connect(store_path):
-    db = sqlite3.connect(store_path, timeout=30.0, isolation_level=None)
-    db.execute("PRAGMA busy_timeout=30000")
-    db.executescript(SCHEMA)
-    return closing(db)
+    db = connect(store_path)
+    db.thing.executescript(SCHEMA)
+    return db
 
 
 def _png(draw) -> bytes | None:

@@ -20,13 +20,12 @@ import math
 import sqlite3
 import time
 import uuid
-from contextlib import closing
 
 import numpy as np
 
 import brdffit
 
-from .store import data_from_bytes, data_to_bytes, iso
+from .store import connect, data_from_bytes, data_to_bytes, iso
 
 __all__ = ["ComparisonStore", "heldout_rmse", "ranks", "score"]
 
@@ -84,10 +83,7 @@ class ComparisonStore:
             db.executescript(SCHEMA)
 
     def _connect(self):
-        db = sqlite3.connect(self.path, timeout=30.0, isolation_level=None)
-        db.row_factory = sqlite3.Row
-        db.execute("PRAGMA busy_timeout=30000")
-        return closing(db)
+        return connect(self.path)
 
     def create(self, source: str, models: list, jobs: list, test, test_fraction: float,
                seed: int, n_train: int) -> str:  # fmt: skip

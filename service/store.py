@@ -18,7 +18,7 @@ import json
 import sqlite3
 import time
 import uuid
-from contextlib import closing, contextmanager
+from contextlib import closing
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -75,6 +75,19 @@ def data_from_bytes(blob: bytes) -> brdffit.Measurements:
     return brdffit.read(blob, format="npz")
 
 
+def connect(path) -> closing:
+    """A short-lived connection to the service's SQLite file (jobs, comparisons and
+    plots share it), closed on leaving its ``with``: one per operation, since
+    handlers run on several threads and workers in other processes, and opening a
+    SQLite file costs microseconds. Rows by name and index; every commit durable;
+    a writer waits up to 30 s for another."""
+    db = sqlite3.connect(path, timeout=30.0, isolation_level=None)
+    db.row_factory = sqlite3.Row
+    db.execute("PRAGMA synchronous=FULL")
+    db.execute("PRAGMA busy_timeout=30000")
+    return closing(db)
+
+
 class JobStore:
     """The SQLite file of jobs at ``path`` (created with its folder if absent)."""
 
@@ -89,15 +102,8 @@ class JobStore:
             if "notes" not in columns:
                 db.execute("ALTER TABLE jobs ADD COLUMN notes TEXT")
 
-    @contextmanager
     def _connect(self):
-        # One short-lived connection per operation: handlers run on several threads
-        # and workers in other processes; opening a SQLite file costs microseconds.
-        with closing(sqlite3.connect(self.path, timeout=30.0, isolation_level=None)) as db:
-            db.row_factory = sqlite3.Row
-            db.execute("PRAGMA synchronous=FULL")
-            db.execute("PRAGMA busy_timeout=30000")
-            yield db
+        return connect(self.path)
 
     # ------------------------------------------------------------ web process
     def create(self, model: str, options: dict, data: bytes, notes=()) -> dict:
