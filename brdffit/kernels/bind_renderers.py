@@ -158,7 +158,7 @@ def _principled(anisotropic: bool) -> _Coloured:
     def prepare(g, s: Mapping) -> tuple:
         terms = inputs.principled_anisotropic_inputs if anisotropic else inputs.principled_inputs
         loop, arrays = terms(g)
-        fresnel = dielectric_fresnel32 if loop == "principled_unit" else dielectric_fresnel
+        fresnel = dielectric_fresnel if loop == "principled" else dielectric_fresnel32
         return loop, (*arrays, fresnel(g, principled_eta(float(s["specular"]))))
 
     def shape(s: Mapping) -> tuple:

@@ -209,8 +209,10 @@ def test_directions_off_unit_length_give_the_numpy_values(name):
     wo = wo * (1.0 + rng.uniform(-9e-7, 9e-7, (wo.shape[0], 1)))
     params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
     geometry = Geometry(wi, wo)
+    # principled's loop for directions off unit length reads float64 only
+    tolerance = TOLERANCE if name == "mitsuba_principled" else _tolerance(name)
     compiled, reference = _both(model, geometry, params)
-    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    np.testing.assert_allclose(compiled, reference, rtol=tolerance, atol=0)
     shape = {p.name: params[p.name] for p in model.shape_params}
     with kernels.use(True):
         design = model.design(geometry, shape)
@@ -218,7 +220,7 @@ def test_directions_off_unit_length_give_the_numpy_values(name):
         expected = model.design(geometry, shape)
     for got, want in zip((*design.columns, design.offset), (*expected.columns, expected.offset)):
         if want is not None:
-            np.testing.assert_allclose(got, want, rtol=TOLERANCE, atol=0)
+            np.testing.assert_allclose(got, want, rtol=tolerance, atol=0)
 
 
 @pytest.mark.parametrize("name", RENDERER_MODELS)
