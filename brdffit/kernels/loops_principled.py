@@ -166,8 +166,8 @@ def principled_anisotropic(
     (:func:`~brdffit.kernels.elementary.fast_reciprocal`). 512-bit vectors where the
     processor has them (:func:`~brdffit.kernels.wide.prefer_wide_vectors`). Measured
     at 1 M pairs beside the loop before (seven float64 arrays, ``H`` formed from L and
-    V, three roots): 4.9 -> 3.7 ns a pair streamed from memory, 3.0-4.5 -> 2.6 in the
-    cache."""
+    V, three roots, the test of ``column`` inside the loop): 5.4-6.0 -> 3.7-3.8 ns a
+    pair streamed from memory, 3.7-5.1 -> 2.6-3.5 in the cache."""
     prefer_wide_vectors()
     u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
     inv_u2, inv_v2 = 1.0 / u2, 1.0 / v2
