@@ -8,7 +8,12 @@ with the separable Smith masking (Walter, Marschner, Li and Torrance, EGSR 2007;
 anisotropic: Heitz, JCGT 3(2), 2014, section 5.4), the dielectric Fresnel factor
 mixed with Schlick's on the base colour by ``metallic``. Each loop writes the
 colour's ``column`` and the ``offset`` when ``column`` has pairs, else the BRDF at
-the colour ``base`` into ``out``.
+the colour ``base`` into ``out``. The loops of unit directions and the anisotropic
+one read the inputs that tolerate it in float32 and compute in float64
+(:mod:`brdffit.kernels.inputs_renderers` bounds the error:
+:data:`~brdffit.kernels.inputs.PRINCIPLED_F32_ERROR`,
+:data:`~brdffit.kernels.inputs.PRINCIPLED_ANISOTROPIC_F32_ERROR`): they were limited
+by their memory traffic (benchmarks/README.md, "Principled and Fournier kernels").
 """
 
 from __future__ import annotations
@@ -52,6 +57,16 @@ def _principled_mix(dg, cd, ci, co, fresnel, metallic, rough):
     return column, ((1.0 - metallic) * fresnel + metallic * w) * dg
 
 
+@_inline
+def _pair(t2, t2_i, t2_o, ci, co, cd, fresnel, alpha2, inv_a2, scale, metallic, rough):
+    """:func:`principled`'s ``(column, offset)`` of one pair."""
+    p, q = 1.0 + t2, 1.0 + t2 * inv_a2
+    g_i = 1.0 + math.sqrt(1.0 + alpha2 * t2_i)
+    g_o = 1.0 + math.sqrt(1.0 + alpha2 * t2_o)
+    dg = scale * (p * p) * fast_reciprocal(q * q * (g_i * g_o) * (ci * co))
+    return _principled_mix(dg, cd, ci, co, fresnel, metallic, rough)
+
+
 @jit
 def principled(
     tan2_h, tan2_i, tan2_o, cos_i, cos_o, cos_d, fresnel,
@@ -66,20 +81,23 @@ def principled(
     tan^2 theta_L))(1 + sqrt(1 + alpha^2 tan^2 theta_V))``: seven arrays and one
     reciprocal. (The loop of before read six, with ``G1`` from the cosines alone,
     ``tan^2 = (1 - c^2) / c^2``, which holds for unit L and V only: directions are
-    accepted within 1e-6 of unit length, and there it was 1e-6 off the numpy model.)"""
+    accepted within 1e-6 of unit length, and there it was 1e-6 off the numpy model.)
+    Float64 inputs; design and values in separate loops (see :func:`principled_unit`)."""
     inv_a2 = 1.0 / alpha2
     scale = _INV_PI * inv_a2
+    if column.shape[0] > 0:
+        for i in range(out.shape[0]):
+            column[i], out[i] = _pair(
+                tan2_h[i], tan2_i[i], tan2_o[i], cos_i[i], cos_o[i], cos_d[i], fresnel[i],
+                alpha2, inv_a2, scale, metallic, rough,
+            )  # fmt: skip
+        return out
     for i in range(out.shape[0]):
-        ci, co, t2 = cos_i[i], cos_o[i], tan2_h[i]
-        p, q = 1.0 + t2, 1.0 + t2 * inv_a2
-        g_i = 1.0 + math.sqrt(1.0 + alpha2 * tan2_i[i])
-        g_o = 1.0 + math.sqrt(1.0 + alpha2 * tan2_o[i])
-        dg = scale * (p * p) * fast_reciprocal(q * q * (g_i * g_o) * (ci * co))
-        col, off = _principled_mix(dg, cos_d[i], ci, co, fresnel[i], metallic, rough)
-        if column.shape[0] > 0:
-            column[i], out[i] = col, off
-        else:
-            out[i] = off + base * col
+        col, off = _pair(
+            tan2_h[i], tan2_i[i], tan2_o[i], cos_i[i], cos_o[i], cos_d[i], fresnel[i],
+            alpha2, inv_a2, scale, metallic, rough,
+        )  # fmt: skip
+        out[i] = off + base * col
     return out
 
 
@@ -112,7 +130,7 @@ def principled_unit(
     ``tan2_h``, ``cos_i``, ``cos_o`` and ``fresnel`` may be float32
     (:func:`~brdffit.kernels.inputs_renderers.principled_inputs` states the error);
     the arithmetic is float64. One loop for the design (``column`` given) and one for
-    the values: a test of ``column`` inside the loop cost 0.5-1.3 ns of 2.2-4.4 a
+    the values: a test of ``column`` inside the loop cost 0.5-1.4 ns of 2.2-4.6 a
     pair (measured at 1 M pairs)."""
     inv_a2 = 1.0 / alpha2
     scale = _INV_PI * inv_a2
