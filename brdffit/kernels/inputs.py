@@ -25,6 +25,8 @@ __all__ = [
     "COT_MAX",
     "F32_ERROR",
     "GGX_ANISOTROPIC_F32_ERROR",
+    "PRINCIPLED_ANISOTROPIC_F32_ERROR",
+    "PRINCIPLED_F32_ERROR",
     "ashikhmin_shirley_inputs",
     "beckmann_anisotropic_inputs",
     "beckmann_inputs",
@@ -218,12 +220,21 @@ def beckmann_anisotropic_inputs(g: Geometry) -> tuple:
     return (*_h_axes(g), *axes[:4], _log_microfacet_factor(g), axes[4])
 
 
+#: The relative error that float32 inputs add to Mitsuba's principled: ``5 u``, ``u =
+#: 2^-24`` (derived in :func:`brdffit.kernels.inputs_renderers.principled_inputs`).
+PRINCIPLED_F32_ERROR = 5 * 2.0**-24
+#: The same for its anisotropic form: ``7 u`` (derived in
+#: :func:`brdffit.kernels.inputs_renderers.principled_anisotropic_inputs`).
+PRINCIPLED_ANISOTROPIC_F32_ERROR = 7 * 2.0**-24
+
 #: Model name -> the relative error its loop's float32 inputs add (the bounds above;
 #: the other loops read float64 only).
 F32_ERROR = {
     "beckmann": BECKMANN_F32_ERROR,
     "ggx_anisotropic": GGX_ANISOTROPIC_F32_ERROR,
     "beckmann_anisotropic": BECKMANN_ANISOTROPIC_F32_ERROR,
+    "mitsuba_principled": PRINCIPLED_F32_ERROR,
+    "mitsuba_principled_anisotropic": PRINCIPLED_ANISOTROPIC_F32_ERROR,
 }
 
 

@@ -250,7 +250,11 @@ def test_compiled_design_and_evaluation_equal_numpy_across_the_parameter_box(nam
         assert _relative(model.evaluate_prepared(geometry, params), expected) < tolerance, params
 
 
-@pytest.mark.parametrize("name", ["beckmann", "ggx_anisotropic", "beckmann_anisotropic"])
+@pytest.mark.parametrize(
+    "name",
+    ["beckmann", "ggx_anisotropic", "beckmann_anisotropic", "mitsuba_principled",
+     "mitsuba_principled_anisotropic"],
+)  # fmt: skip
 def test_float32_inputs_cost_what_their_bound_states(name):
     """The loops that read float32 inputs stay within the stated bound of the float64
     numpy model, and the bound is not slack: the largest error over random
