@@ -61,6 +61,7 @@ __all__ = [
     "beckmann",
     "beckmann_anisotropic",
     "ggx_anisotropic",
+    "ggx_anisotropic_dg",
     "reciprocal_short",
     "rsqrt",
     "wide",
@@ -103,6 +104,11 @@ def wide(dispatcher):
     call.__name__, call.__qualname__ = dispatcher.__name__, dispatcher.__qualname__
     call.__doc__, call.__wrapped__ = dispatcher.__doc__, dispatcher
     return call
+
+
+def inline(function):
+    """``function`` compiled to be inlined into the loops that call it."""
+    return numba.njit(inline="always", fastmath=FLAGS)(function)
 
 
 @numba.njit(inline="always", fastmath=FLAGS)
@@ -202,24 +208,38 @@ def beckmann_anisotropic(
     return out
 
 
+@inline
+def ggx_anisotropic_dg(tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, inv_4_cos, inv_u2, inv_v2, u2, v2):
+    """``D G1(L) G1(V) / (4 (N.L)(N.V))`` of anisotropic GGX without its constant ``4 /
+    (pi alpha_u alpha_v)``: ``c^2 inv_4_cos / (t^2 g)``, ``c = 1 + tan2_t + tan2_b = 1 /
+    (N.H)^2`` (:func:`~brdffit.kernels.inputs.inv_4_cos32` says why not the whole
+    factor), ``t`` and ``g`` as in :func:`ggx_anisotropic` (``sqrt(m) = m rsqrt(m)``)."""
+    c = 1.0 + tan2_t + tan2_b
+    t = 1.0 + tan2_t * inv_u2 + tan2_b * inv_v2
+    m_i = min(1.0 + u2 * tx_i + v2 * ty_i, RSQRT_MAX)
+    m_o = min(1.0 + u2 * tx_o + v2 * ty_o, RSQRT_MAX)
+    g = (1.0 + m_i * rsqrt(m_i)) * (1.0 + m_o * rsqrt(m_o))
+    return (c * c) * inv_4_cos / (t * t * g)
+
+
 @wide
 @jit
 def ggx_anisotropic(
-    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, weight, alpha_u, alpha_v, f0, a, b, out
+    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, inv_4_cos, weight, alpha_u, alpha_v, f0, a, b, out
 ):
     """Anisotropic GGX (Heitz 2014, section 5.4): ``D = 1 / (pi alpha_u alpha_v (N.H)^4
     t^2)``, ``t = 1 + tan2_t/alpha_u^2 + tan2_b/alpha_v^2``, and Smith ``G1 = 2 / (1 +
-    sqrt(m))``, ``m = 1 + alpha_u^2 tx + alpha_v^2 ty``, of L and of V; ``factor`` is
-    ``1 / (4 (N.L)(N.V) (N.H)^4)``. ``sqrt(m) = m rsqrt(m)``: no division but the
-    last. The cached inputs but ``tan2_t``, ``tan2_b`` are float32."""
+    sqrt(m))``, ``m = 1 + alpha_u^2 tx + alpha_v^2 ty``, of L and of V; ``inv_4_cos`` is
+    ``1 / (4 (N.L)(N.V))`` (:func:`ggx_anisotropic_dg`). No division but the last. The
+    cached inputs but ``tan2_t``, ``tan2_b`` are float32."""
     inv_u2, inv_v2 = 1.0 / (alpha_u * alpha_u), 1.0 / (alpha_v * alpha_v)
     u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
     scale = 4.0 * a * _INV_PI / (alpha_u * alpha_v)
     for i in range(out.shape[0]):
-        t = 1.0 + tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2
-        m_i = min(1.0 + u2 * tx_i[i] + v2 * ty_i[i], RSQRT_MAX)
-        m_o = min(1.0 + u2 * tx_o[i] + v2 * ty_o[i], RSQRT_MAX)
-        g = (1.0 + m_i * rsqrt(m_i)) * (1.0 + m_o * rsqrt(m_o))
         fresnel = f0 + (1.0 - f0) * weight[i]
-        out[i] = b + scale * factor[i] * fresnel / (t * t * g)
+        dg = ggx_anisotropic_dg(
+            tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], inv_4_cos[i],
+            inv_u2, inv_v2, u2, v2,
+        )  # fmt: skip
+        out[i] = b + scale * fresnel * dg
     return out

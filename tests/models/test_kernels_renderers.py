@@ -21,6 +21,16 @@ pytestmark = NEEDS_KERNELS
 
 #: fast_exp's flush (test_kernels.py): no exponential here, so values agree to rounding.
 TOLERANCE = 1e-12
+
+
+def _tolerance(name: str) -> float:
+    """:data:`TOLERANCE`, plus what float32 inputs add to the models whose loops read
+    some (brdffit.kernels.inputs.F32_ERROR: the anisotropic glTF and roughconductor)."""
+    from brdffit.kernels import inputs
+
+    return TOLERANCE + inputs.F32_ERROR.get(name, 0.0)
+
+
 #: Every renderer-native model with a compiled form (brdffit.kernels.bind_renderers).
 RENDERER_MODELS = [
     "gltf_pbr", "gltf_pbr_anisotropic", "mitsuba_roughconductor",
@@ -77,7 +87,7 @@ def test_per_channel_colours_combine_the_compiled_columns(name):
     with kernels.use(False):
         expected = model.evaluate(wi, wo, params)
     assert got.shape == (wi.shape[0], 3)
-    np.testing.assert_allclose(got, expected, rtol=TOLERANCE, atol=0)
+    np.testing.assert_allclose(got, expected, rtol=_tolerance(name), atol=0)
 
 
 @pytest.mark.parametrize(
@@ -92,7 +102,7 @@ def test_the_perfect_conductor_skips_only_a_fresnel_factor_of_exactly_one(name, 
     wi, wo = hemisphere_pairs(800, seed=33)
     params = {**model.defaults(), "eta": eta, "k": k}
     compiled, reference = _both(model, Geometry(wi, wo), params)
-    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    np.testing.assert_allclose(compiled, reference, rtol=_tolerance(name), atol=0)
     if (eta, k) == (0.0, 0.0):  # at L = V = N, half of the perfect conductor's value
         at_normal = (wi[:, 2] == 1.0) & (wo[:, 2] == 1.0)
         perfect, _ = _both(model, Geometry(wi, wo), {**params, "k": 1.0})
@@ -202,7 +212,7 @@ def test_directions_off_unit_length_give_the_numpy_values(name):
     params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
     geometry = Geometry(wi, wo)
     compiled, reference = _both(model, geometry, params)
-    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    np.testing.assert_allclose(compiled, reference, rtol=_tolerance(name), atol=0)
     shape = {p.name: params[p.name] for p in model.shape_params}
     with kernels.use(True):
         design = model.design(geometry, shape)
@@ -210,7 +220,7 @@ def test_directions_off_unit_length_give_the_numpy_values(name):
         expected = model.design(geometry, shape)
     for got, want in zip((*design.columns, design.offset), (*expected.columns, expected.offset)):
         if want is not None:
-            np.testing.assert_allclose(got, want, rtol=TOLERANCE, atol=0)
+            np.testing.assert_allclose(got, want, rtol=_tolerance(name), atol=0)
 
 
 @pytest.mark.parametrize("name", RENDERER_MODELS)
@@ -228,7 +238,7 @@ def test_directions_just_above_the_horizon_give_the_numpy_values(name, z):
     params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
     compiled, reference = _both(model, Geometry(wi, wo), params)
     assert np.all(np.isfinite(reference))
-    np.testing.assert_allclose(compiled, reference, rtol=TOLERANCE, atol=0)
+    np.testing.assert_allclose(compiled, reference, rtol=_tolerance(name), atol=0)
 
 
 def test_unit_directions_decides_which_principled_loop_runs():
