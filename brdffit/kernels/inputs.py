@@ -218,7 +218,8 @@ def beckmann_anisotropic_inputs(g: Geometry) -> tuple:
     ty`` changes by at most ``2^-24`` relative, so ``a = 1 / sqrt(alpha^2 tan^2)`` by
     3e-8 and Smith's ``G1`` (whose relative change is at most that of ``a``) by 3e-8
     for L and for V, ``F`` by at most 6e-8: 1.2e-7 in all, with the loop's one-step
-    roots (2e-13) within :data:`BECKMANN_ANISOTROPIC_F32_ERROR` of the float64 model
+    roots (2e-13) and its ``exp`` (:func:`~brdffit.kernels.elementary.fast_exp_7`,
+    5e-11) within :data:`BECKMANN_ANISOTROPIC_F32_ERROR` of the float64 model
     (tested; 2.7e-8 observed over random parameters). Measured:
     the loop 1.1x faster streamed from memory (its arithmetic, not its memory, is most
     of its time)."""

@@ -14,18 +14,19 @@ measured in benchmarks/README.md):
   as ``x / sqrt(x)`` with ``1 / sqrt(x)`` (and ``1 / x``) from a float32 estimate
   refined by Newton steps in float64, ``r <- r (3/2 - x r^2 / 2)`` (``r <- r (2 -
   x r)``), each of which squares the relative error: the isotropic Beckmann loop's
-  reciprocal takes two steps (within a few ulps), the roots and the anisotropic
-  Beckmann loop's reciprocal one (:func:`rsqrt`, :func:`reciprocal_short`: the
+  reciprocal takes two steps (within a few ulps), the roots one (:func:`rsqrt`: the
   float32 estimate is within 3e-7, one step within :data:`SHORT_NEWTON_ERROR`,
-  2e-13, tested; measured 1.1e-13 and 3e-14 on the machine of ``benchmarks/``),
-  far below the 1e-11 to which the tests hold these loops to the numpy models.
-  Measured, each beside the loop before it in one process: anisotropic GGX 1.33x
-  for the first form, then 1.2-1.45x for one step instead of two (its last
-  division kept: two one-step reciprocals in its place were slower); anisotropic
-  Beckmann 1.3-1.6x for one step, the ``exp`` below and its float32 inputs;
+  2e-13, tested; measured 1.1e-13 on the machine of ``benchmarks/``), far below the
+  1e-11 to which the tests hold these loops to the numpy models. Measured, each
+  beside the loop before it in one process: anisotropic GGX 1.33x for the first
+  form, then 1.2-1.45x for one step instead of two (its last division kept: two
+  one-step reciprocals in its place were slower); anisotropic Beckmann 1.3-1.6x for
+  one step, the ``exp`` below and its float32 inputs, then 1.1x for a true last
+  division (the divider otherwise idle) with the ``exp`` of degree 7;
 - ``exp`` is :func:`~brdffit.kernels.elementary.fast_exp_short` (same accuracy,
   fewer operations than :func:`~brdffit.kernels._compile.fast_exp`): the Beckmann
-  loop 1.2x;
+  loop 1.2x; the anisotropic Beckmann loop's, whose float32 inputs cost more, is
+  :func:`~brdffit.kernels.elementary.fast_exp_7` (within 5e-11);
 - on processors with AVX-512 the loops are compiled with eight doubles to a vector
   (:func:`wide`): LLVM's default for them is four;
 - the loops read the inputs that tolerate it in float32
@@ -53,7 +54,7 @@ import numba
 import numpy as np
 
 from ._compile import FLAGS, jit
-from .elementary import fast_exp_short
+from .elementary import fast_exp_7, fast_exp_short
 from .smith import A_MAX, P, Q
 
 __all__ = [
@@ -62,7 +63,6 @@ __all__ = [
     "beckmann_anisotropic",
     "ggx_anisotropic",
     "ggx_anisotropic_dg",
-    "reciprocal_short",
     "rsqrt",
     "wide",
 ]
@@ -70,8 +70,8 @@ __all__ = [
 _INV_PI = 1.0 / math.pi
 #: The bounds of :func:`rsqrt`'s argument: float32 holds them and their roots.
 RSQRT_MIN, RSQRT_MAX = 1e-30, 1e30
-#: The stated bound on the relative error of :func:`rsqrt` and
-#: :func:`reciprocal_short` (one Newton step from a float32 estimate; tested).
+#: The stated bound on the relative error of :func:`rsqrt` (one Newton step from a
+#: float32 estimate; tested).
 SHORT_NEWTON_ERROR = 2e-13
 _LOCK = threading.Lock()
 
@@ -132,14 +132,6 @@ def _reciprocal(x):
 
 
 @numba.njit(inline="always", fastmath=FLAGS)
-def reciprocal_short(x):
-    """``1 / x`` for ``1e-30 <= x <= 1e30`` as :func:`_reciprocal` with one Newton step,
-    within :data:`SHORT_NEWTON_ERROR` relative (the anisotropic loops)."""
-    r = np.float64(np.float32(1.0) / np.float32(x))
-    return r * (2.0 - x * r)
-
-
-@numba.njit(inline="always", fastmath=FLAGS)
 def _beckmann_g1_terms(a):
     """``(a Q(x), a Q(x) + P(x))`` of :mod:`brdffit.kernels.smith`, whose ratio is
     Beckmann's Smith ``G1`` at ``a = 1/(alpha tan theta) <= A_MAX``: no library call
@@ -185,11 +177,15 @@ def beckmann_anisotropic(
 ):
     """Anisotropic Beckmann (Heitz 2014, section 5.4): ``D = exp(-(tan2_t/alpha_u^2 +
     tan2_b/alpha_v^2)) / (pi alpha_u alpha_v (N.H)^4)`` and the Smith ``G1`` of
-    :func:`beckmann` at ``a = 1 / sqrt(alpha_u^2 tx + alpha_v^2 ty)`` (clamped to
-    ``A_MAX`` by clamping ``alpha^2 tan^2`` to ``1/A_MAX^2`` first: ``rsqrt``'s
-    error may take it 2e-13 past, where the rational function is as accurate);
-    ``log_factor`` as in :func:`beckmann`. The cached ``tx``, ``ty`` and ``weight``
-    are float32."""
+    :func:`beckmann` at ``a = 1 / sqrt(s)``, ``s = alpha_u^2 tx + alpha_v^2 ty`` (clamped
+    to ``A_MAX`` by clamping ``s`` to ``1/A_MAX^2`` first: ``rsqrt``'s error may take it
+    2e-13 past, where the rational function is as accurate; ``s`` is at most 2e20 <
+    ``RSQRT_MAX`` for widths in the box, ``alpha <= 1``: ``tx``, ``ty`` are at most 1e20,
+    the cosines being clamped at 1e-10); ``log_factor`` as in :func:`beckmann`. The cached ``tx``,
+    ``ty`` and ``weight`` are float32; ``exp`` is
+    :func:`~brdffit.kernels.elementary.fast_exp_7` (within 5e-11) and the last
+    division a true one (the divider is otherwise idle here: measured with the
+    shorter ``exp`` and without the upper clamp of ``s``, 3.09 -> 2.78 ns a pair)."""
     if a <= 0.0:
         out[:] = b
         return out
@@ -198,13 +194,13 @@ def beckmann_anisotropic(
     log_scale = math.log(a * _INV_PI / (alpha_u * alpha_v))
     s_min = 1.0 / (A_MAX * A_MAX)
     for i in range(out.shape[0]):
-        s_i = min(max(u2 * tx_i[i] + v2 * ty_i[i], s_min), RSQRT_MAX)  # at most 2e20
-        s_o = min(max(u2 * tx_o[i] + v2 * ty_o[i], s_min), RSQRT_MAX)
+        s_i = max(u2 * tx_i[i] + v2 * ty_i[i], s_min)  # at most 2e20
+        s_o = max(u2 * tx_o[i] + v2 * ty_o[i], s_min)
         fresnel = f0 + (1.0 - f0) * weight[i]
         exponent = log_scale + log_factor[i] - (tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2)
         n_i, d_i = _beckmann_g1_terms(rsqrt(s_i))  # at most A_MAX (1 + 2e-13)
         n_o, d_o = _beckmann_g1_terms(rsqrt(s_o))
-        out[i] = b + fresnel * fast_exp_short(exponent) * (n_i * n_o) * reciprocal_short(d_i * d_o)
+        out[i] = b + fresnel * fast_exp_7(exponent) * (n_i * n_o) / (d_i * d_o)
     return out
 
 
