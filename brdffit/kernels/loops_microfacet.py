@@ -180,9 +180,9 @@ def beckmann_anisotropic(
     :func:`beckmann` at ``a = 1 / sqrt(s)``, ``s = alpha_u^2 tx + alpha_v^2 ty`` (clamped
     to ``A_MAX`` by clamping ``s`` to ``1/A_MAX^2`` first: ``rsqrt``'s error may take it
     2e-13 past, where the rational function is as accurate; ``s`` is at most 2e20 <
-    ``RSQRT_MAX`` for widths in the box, ``alpha <= 1``: ``tx``, ``ty`` are at most 1e20,
-    the cosines being clamped at 1e-10); ``log_factor`` as in :func:`beckmann`. The cached ``tx``,
-    ``ty`` and ``weight`` are float32; ``exp`` is
+    ``RSQRT_MAX`` for widths in the box, ``alpha <= 1``: ``tx``, ``ty`` are at most
+    1e20, the cosines being clamped at 1e-10); ``log_factor`` as in :func:`beckmann`.
+    The cached ``tx``, ``ty`` and ``weight`` are float32; ``exp`` is
     :func:`~brdffit.kernels.elementary.fast_exp_7` (within 5e-11) and the last
     division a true one (the divider is otherwise idle here: measured with the
     shorter ``exp`` and without the upper clamp of ``s``, 3.09 -> 2.78 ns a pair)."""
