@@ -50,8 +50,8 @@ def gltf_anisotropic_inputs(g: Geometry) -> tuple:
     ``H_z^2``.
 
     The loop is limited by memory: the factor in float32 (68 bytes a pair instead of
-    72) gave it 1.06x (2.58 -> 2.44 ns a pair, one process). It scales the specular term
-    only, by its rounding, within
+    72) with eight lanes gave it 1.035x (2.63 -> 2.54 ns a pair, medians of 15 rounds
+    in one process). It scales the specular term only, by its rounding, within
     :data:`~brdffit.kernels.inputs.GLTF_ANISOTROPIC_F32_ERROR` (tested). No other input
     tolerates float32: the rotation and the widths' ratio amplify the rounding of H's
     components and of the slopes by up to ``1 / alpha`` or the widths' ratio (far past
