@@ -59,10 +59,13 @@ from ._compile import _bits_of_double as _bits
 from ._compile import _double_from_bits as _float
 
 __all__ = [
+    "EXP7_ERROR",
     "EXP_POLYNOMIAL",
+    "EXP_POLYNOMIAL_7",
     "G",
     "LOG_ZERO",
     "Z_MAX",
+    "fast_exp_7",
     "fast_exp_short",
     "fast_log",
     "fast_log1p",
@@ -111,6 +114,21 @@ EXP_POLYNOMIAL = (
     1.0,
     1.0,
 )
+
+#: The polynomial of degree 7 in place of ``exp(r)`` (:func:`fit_exp_polynomial` with
+#: ``degree=7``), highest power first: relative error 4.1e-11 on ``|r| <= ln(2)/2``.
+EXP_POLYNOMIAL_7 = (
+    0.0001976691897555816,
+    0.0013948134043156074,
+    0.008333578289957027,
+    0.041666226310524,
+    0.1666666502416243,
+    0.5000000104139771,
+    1.000000000258079,
+    0.9999999999619436,
+)
+#: The stated bound on the relative error of :func:`fast_exp_7` (tested).
+EXP7_ERROR = 5e-11
 
 
 def log_series(z: np.ndarray) -> np.ndarray:
@@ -227,6 +245,22 @@ def fast_exp_short(x):
     p = EXP_POLYNOMIAL[0]
     for j in range(1, len(EXP_POLYNOMIAL)):
         p = p * r + EXP_POLYNOMIAL[j]
+    scaled = p * _float((_bits(t) + 1023) << 52)
+    return scaled if x >= EXP_MIN else 0.0
+
+
+@numba.njit(inline="always", fastmath=FLAGS)
+def fast_exp_7(x):
+    """:func:`fast_exp_short` with :data:`EXP_POLYNOMIAL_7`: four multiply-adds fewer,
+    within :data:`EXP7_ERROR` relative. For the anisotropic Beckmann loop, whose float32
+    inputs already cost it up to 1.2e-7 (its exponent error adds 5e-11 to that)."""
+    y = min(max(x, EXP_MIN), _EXP_MAX)
+    t = y * _LOG2E + _ROUND
+    k = t - _ROUND
+    r = y - k * _LN2_HI - k * _LN2_LO
+    p = EXP_POLYNOMIAL_7[0]
+    for j in range(1, len(EXP_POLYNOMIAL_7)):
+        p = p * r + EXP_POLYNOMIAL_7[j]
     scaled = p * _float((_bits(t) + 1023) << 52)
     return scaled if x >= EXP_MIN else 0.0
 

@@ -16,17 +16,20 @@ import math
 import numpy as np
 
 from ..data.geometry import MIN_COSINE, Geometry
+from ..models.microfacet import inv_4_cos
 from ..models.shared import schlick_weight, vcavity_g
 
 __all__ = [
     "ashikhmin_phong_inputs",
     "BECKMANN_ANISOTROPIC_F32_ERROR",
     "BECKMANN_F32_ERROR",
+    "CONDUCTOR_ANISOTROPIC_F32_ERROR",
     "COT_MAX",
     "F32_ERROR",
     "GGX_ANISOTROPIC_F32_ERROR",
     "PRINCIPLED_ANISOTROPIC_F32_ERROR",
     "PRINCIPLED_F32_ERROR",
+    "GLTF_ANISOTROPIC_F32_ERROR",
     "ashikhmin_shirley_inputs",
     "beckmann_anisotropic_inputs",
     "beckmann_inputs",
@@ -36,6 +39,7 @@ __all__ = [
     "cook_torrance_schlick_inputs",
     "heidrich_seidel_inputs",
     "ggx_anisotropic_inputs",
+    "inv_4_cos32",
     "microfacet_inputs",
     "phong_inputs",
     "schlick_inputs",
@@ -143,19 +147,6 @@ def _h_axes(g: Geometry) -> tuple:
     return g.cached("kernels.h_axes", lambda: _tan2_axes_of(g.half, g.cos_h))
 
 
-def _anisotropic_axes(g: Geometry) -> tuple:
-    """:func:`_tan2_axes_of` of H, L and V: six arrays."""
-
-    def compute():
-        return (
-            *_h_axes(g),
-            *_tan2_axes_of(g.wi, g.cos_i),
-            *_tan2_axes_of(g.wo, g.cos_o),
-        )
-
-    return g.cached("kernels.anisotropic_axes", compute)
-
-
 def _axes32(g: Geometry) -> tuple:
     """:func:`_tan2_axes_of` L and of V and Schlick's ``(1 - V.H)^5``, in float32: the
     inputs of both anisotropic microfacet loops that tolerate it; cached."""
@@ -171,6 +162,17 @@ def _axes32(g: Geometry) -> tuple:
     return g.cached("kernels.axes32", compute)
 
 
+def inv_4_cos32(g: Geometry) -> np.ndarray:
+    """``1 / (4 (N.L)(N.V))`` in float32, at most 2.5e19 (the cosines are clamped at
+    ``MIN_COSINE``); cached. The anisotropic GGX loops multiply it by ``(1 + tan2_t +
+    tan2_b)^2``, which is ``1 / (N.H)^4`` to a few ulps (H is of unit length; where
+    ``N.H`` is clamped at ``MIN_COSINE`` the two differ by under 1e-20 relative): the
+    factor ``1 / (4 (N.L)(N.V) (N.H)^4)`` itself reaches 2.5e59 near the horizon,
+    infinite in float32 (the loop of before returned ``inf`` where the numpy model is
+    finite, for N.H near 1e-10: tests/models/test_kernels.py)."""
+    return g.cached("kernels.inv_4_cos32", lambda: inv_4_cos(g).astype(np.float32))
+
+
 #: The relative error that float32 inputs add to anisotropic GGX (see
 #: :func:`ggx_anisotropic_inputs`), stated and tested.
 GGX_ANISOTROPIC_F32_ERROR = 2e-7
@@ -178,8 +180,8 @@ GGX_ANISOTROPIC_F32_ERROR = 2e-7
 
 def ggx_anisotropic_inputs(g: Geometry) -> tuple:
     """Anisotropic GGX: ``(H.T / N.H)^2``, ``(H.B / N.H)^2`` in float64, then in float32
-    :func:`_tan2_axes_of` L and of V, ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's
-    ``(1 - V.H)^5``; cached.
+    :func:`_tan2_axes_of` L and of V, ``1 / (4 (N.L)(N.V))`` (:func:`inv_4_cos32`) and
+    Schlick's ``(1 - V.H)^5``.
 
     The loop is limited by its memory traffic (eight float64 arrays: 72 bytes a pair
     with its output; measured at 0.6-0.7x of Mitsuba's GGX), so the inputs that
@@ -189,12 +191,18 @@ def ggx_anisotropic_inputs(g: Geometry) -> tuple:
     and Schlick's ``F = f0 + (1 - f0) w`` by at most 6e-8 each: in all within
     :data:`GGX_ANISOTROPIC_F32_ERROR` of the float64 model (tests/models/test_kernels.py).
     ``D``'s ``tan^2`` stay float64: its ``t^2`` would amplify theirs."""
+    axes = _axes32(g)
+    return (*_h_axes(g), *axes[:4], inv_4_cos32(g), axes[4])
 
-    def compute():
-        axes = _axes32(g)
-        return (*_h_axes(g), *axes[:4], _microfacet_factor(g).astype(np.float32), axes[4])
 
-    return g.cached("kernels.ggx_anisotropic", compute)
+#: The relative error that float32 inputs add to Mitsuba's anisotropic roughconductor
+#: (:func:`brdffit.kernels.inputs_renderers.conductor_anisotropic_inputs`: those of
+#: anisotropic GGX but Schlick's weight, 1.2e-7 to first order), stated and tested.
+CONDUCTOR_ANISOTROPIC_F32_ERROR = 1.3e-7
+#: The relative error that the float32 ``1 / (4 (N.L)(N.V))`` adds to glTF's anisotropic
+#: model (:func:`brdffit.kernels.inputs_renderers.gltf_anisotropic_inputs`: its
+#: rounding, ``2^-24``, in the specular term), stated and tested.
+GLTF_ANISOTROPIC_F32_ERROR = 7e-8
 
 
 #: The relative error that float32 inputs add to anisotropic Beckmann (see
@@ -212,7 +220,8 @@ def beckmann_anisotropic_inputs(g: Geometry) -> tuple:
     ty`` changes by at most ``2^-24`` relative, so ``a = 1 / sqrt(alpha^2 tan^2)`` by
     3e-8 and Smith's ``G1`` (whose relative change is at most that of ``a``) by 3e-8
     for L and for V, ``F`` by at most 6e-8: 1.2e-7 in all, with the loop's one-step
-    roots (2e-13) within :data:`BECKMANN_ANISOTROPIC_F32_ERROR` of the float64 model
+    roots (2e-13) and its ``exp`` (:func:`~brdffit.kernels.elementary.fast_exp_7`,
+    5e-11) within :data:`BECKMANN_ANISOTROPIC_F32_ERROR` of the float64 model
     (tested; 2.7e-8 observed over random parameters). Measured:
     the loop 1.1x faster streamed from memory (its arithmetic, not its memory, is most
     of its time)."""
@@ -235,6 +244,8 @@ F32_ERROR = {
     "beckmann_anisotropic": BECKMANN_ANISOTROPIC_F32_ERROR,
     "mitsuba_principled": PRINCIPLED_F32_ERROR,
     "mitsuba_principled_anisotropic": PRINCIPLED_ANISOTROPIC_F32_ERROR,
+    "mitsuba_roughconductor_anisotropic": CONDUCTOR_ANISOTROPIC_F32_ERROR,
+    "gltf_pbr_anisotropic": GLTF_ANISOTROPIC_F32_ERROR,
 }
 
 

@@ -12,8 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..data.geometry import Geometry
-from ..models.microfacet import inv_4_cos
-from .inputs import _anisotropic_axes, microfacet_inputs
+from .inputs import _axes32, _h_axes, inv_4_cos32, microfacet_inputs
 
 __all__ = [
     "conductor_anisotropic_inputs",
@@ -45,14 +44,23 @@ def _slopes_of(w: np.ndarray) -> tuple:
 def gltf_anisotropic_inputs(g: Geometry) -> tuple:
     """glTF with KHR_materials_anisotropy: ``x`` and ``y`` of H, the slopes ``x/z``,
     ``y/z`` of L and of V (rotated in the loop; ``z`` clamped as the numpy model's
-    ``Lambda``), ``1 / (4 (N.L)(N.V))`` and ``(1 - V.H)^5``; cached. Eight arrays: a
-    ninth, H's ``z``, made the loop wait for memory (measured: 175 against 390 M
-    pairs/s with the same arrays passed several times); the loop computes ``H_z^2``."""
+    ``Lambda``), ``1 / (4 (N.L)(N.V))`` in float32 and ``(1 - V.H)^5``; cached. Eight
+    arrays: a ninth, H's ``z``, made the loop wait for memory (measured: 175 against
+    390 M pairs/s with the same arrays passed several times); the loop computes
+    ``H_z^2``.
+
+    The loop is limited by memory: the factor in float32 (68 bytes a pair instead of
+    72) with eight lanes gave it 1.035x (2.63 -> 2.54 ns a pair, medians of 15 rounds
+    in one process). It scales the specular term only, by its rounding, within
+    :data:`~brdffit.kernels.inputs.GLTF_ANISOTROPIC_F32_ERROR` (tested). No other input
+    tolerates float32: the rotation and the widths' ratio amplify the rounding of H's
+    components and of the slopes by up to ``1 / alpha`` or the widths' ratio (far past
+    1e-6), and ``1 - w`` that of ``w`` near grazing."""
 
     def compute():
         h = tuple(np.ascontiguousarray(g.half[:, j]) for j in range(2))
         slopes = (*_slopes_of(g.wi), *_slopes_of(g.wo))
-        return (*h, *slopes, inv_4_cos(g), microfacet_inputs(g)[4])
+        return (*h, *slopes, inv_4_cos32(g), microfacet_inputs(g)[4])
 
     return g.cached("kernels.gltf_anisotropic", compute)
 
@@ -64,9 +72,17 @@ def conductor_inputs(g: Geometry) -> tuple:
 
 
 def conductor_anisotropic_inputs(g: Geometry) -> tuple:
-    """Anisotropic roughconductor: the six ``tan^2`` axes of H, L and V, GGX's factor
-    and ``V.H``."""
-    return (*_anisotropic_axes(g), microfacet_inputs(g)[3], g.cos_d)
+    """Anisotropic roughconductor: those of anisotropic GGX
+    (:func:`~brdffit.kernels.inputs.ggx_anisotropic_inputs`, cached there) but
+    Schlick's weight, then ``V.H`` in float64 for the conductor Fresnel factor.
+
+    The ``tan^2`` axes of L and V and ``1 / (4 (N.L)(N.V))`` in float32, as anisotropic
+    GGX's (measured: the loop, limited by memory at 64 bytes a pair, 2.3 -> 1.55 ns a
+    pair with 44): ``G1(L) G1(V)`` within 6e-8, the factor within 6e-8, in all within
+    :data:`~brdffit.kernels.inputs.CONDUCTOR_ANISOTROPIC_F32_ERROR` of the float64
+    model (tested). ``V.H`` stays float64: the Fresnel factor of a conductor changes
+    fast with it near grazing."""
+    return (*_h_axes(g), *_axes32(g)[:4], inv_4_cos32(g), g.cos_d)
 
 
 def plastic_z(g: Geometry) -> tuple:

@@ -14,18 +14,19 @@ measured in benchmarks/README.md):
   as ``x / sqrt(x)`` with ``1 / sqrt(x)`` (and ``1 / x``) from a float32 estimate
   refined by Newton steps in float64, ``r <- r (3/2 - x r^2 / 2)`` (``r <- r (2 -
   x r)``), each of which squares the relative error: the isotropic Beckmann loop's
-  reciprocal takes two steps (within a few ulps), the roots and the anisotropic
-  Beckmann loop's reciprocal one (:func:`rsqrt`, :func:`reciprocal_short`: the
+  reciprocal takes two steps (within a few ulps), the roots one (:func:`rsqrt`: the
   float32 estimate is within 3e-7, one step within :data:`SHORT_NEWTON_ERROR`,
-  2e-13, tested; measured 1.1e-13 and 3e-14 on the machine of ``benchmarks/``),
-  far below the 1e-11 to which the tests hold these loops to the numpy models.
-  Measured, each beside the loop before it in one process: anisotropic GGX 1.33x
-  for the first form, then 1.2-1.45x for one step instead of two (its last
-  division kept: two one-step reciprocals in its place were slower); anisotropic
-  Beckmann 1.3-1.6x for one step, the ``exp`` below and its float32 inputs;
+  2e-13, tested; measured 1.1e-13 on the machine of ``benchmarks/``), far below the
+  1e-11 to which the tests hold these loops to the numpy models. Measured, each
+  beside the loop before it in one process: anisotropic GGX 1.33x for the first
+  form, then 1.2-1.45x for one step instead of two (its last division kept: two
+  one-step reciprocals in its place were slower); anisotropic Beckmann 1.3-1.6x for
+  one step, the ``exp`` below and its float32 inputs, then 1.1x for a true last
+  division (the divider otherwise idle) with the ``exp`` of degree 7;
 - ``exp`` is :func:`~brdffit.kernels.elementary.fast_exp_short` (same accuracy,
   fewer operations than :func:`~brdffit.kernels._compile.fast_exp`): the Beckmann
-  loop 1.2x;
+  loop 1.2x; the anisotropic Beckmann loop's, whose float32 inputs cost more, is
+  :func:`~brdffit.kernels.elementary.fast_exp_7` (within 5e-11);
 - on processors with AVX-512 the loops are compiled with eight doubles to a vector
   (:func:`wide`): LLVM's default for them is four;
 - the loops read the inputs that tolerate it in float32
@@ -53,7 +54,7 @@ import numba
 import numpy as np
 
 from ._compile import FLAGS, jit
-from .elementary import fast_exp_short
+from .elementary import fast_exp_7, fast_exp_short
 from .smith import A_MAX, P, Q
 
 __all__ = [
@@ -61,7 +62,7 @@ __all__ = [
     "beckmann",
     "beckmann_anisotropic",
     "ggx_anisotropic",
-    "reciprocal_short",
+    "ggx_anisotropic_dg",
     "rsqrt",
     "wide",
 ]
@@ -69,8 +70,8 @@ __all__ = [
 _INV_PI = 1.0 / math.pi
 #: The bounds of :func:`rsqrt`'s argument: float32 holds them and their roots.
 RSQRT_MIN, RSQRT_MAX = 1e-30, 1e30
-#: The stated bound on the relative error of :func:`rsqrt` and
-#: :func:`reciprocal_short` (one Newton step from a float32 estimate; tested).
+#: The stated bound on the relative error of :func:`rsqrt` (one Newton step from a
+#: float32 estimate; tested).
 SHORT_NEWTON_ERROR = 2e-13
 _LOCK = threading.Lock()
 
@@ -105,6 +106,11 @@ def wide(dispatcher):
     return call
 
 
+def inline(function):
+    """``function`` compiled to be inlined into the loops that call it."""
+    return numba.njit(inline="always", fastmath=FLAGS)(function)
+
+
 @numba.njit(inline="always", fastmath=FLAGS)
 def rsqrt(x):
     """``1 / sqrt(x)`` for ``RSQRT_MIN <= x <= RSQRT_MAX`` without the divider: a
@@ -122,14 +128,6 @@ def _reciprocal(x):
     denominators, which lie in [0.03, 13] (tests/models/test_kernels.py)."""
     r = np.float64(np.float32(1.0) / np.float32(x))
     r = r * (2.0 - x * r)
-    return r * (2.0 - x * r)
-
-
-@numba.njit(inline="always", fastmath=FLAGS)
-def reciprocal_short(x):
-    """``1 / x`` for ``1e-30 <= x <= 1e30`` as :func:`_reciprocal` with one Newton step,
-    within :data:`SHORT_NEWTON_ERROR` relative (the anisotropic loops)."""
-    r = np.float64(np.float32(1.0) / np.float32(x))
     return r * (2.0 - x * r)
 
 
@@ -179,11 +177,15 @@ def beckmann_anisotropic(
 ):
     """Anisotropic Beckmann (Heitz 2014, section 5.4): ``D = exp(-(tan2_t/alpha_u^2 +
     tan2_b/alpha_v^2)) / (pi alpha_u alpha_v (N.H)^4)`` and the Smith ``G1`` of
-    :func:`beckmann` at ``a = 1 / sqrt(alpha_u^2 tx + alpha_v^2 ty)`` (clamped to
-    ``A_MAX`` by clamping ``alpha^2 tan^2`` to ``1/A_MAX^2`` first: ``rsqrt``'s
-    error may take it 2e-13 past, where the rational function is as accurate);
-    ``log_factor`` as in :func:`beckmann`. The cached ``tx``, ``ty`` and ``weight``
-    are float32."""
+    :func:`beckmann` at ``a = 1 / sqrt(s)``, ``s = alpha_u^2 tx + alpha_v^2 ty`` (clamped
+    to ``A_MAX`` by clamping ``s`` to ``1/A_MAX^2`` first: ``rsqrt``'s error may take it
+    2e-13 past, where the rational function is as accurate; ``s`` is at most 2e20 <
+    ``RSQRT_MAX`` for widths in the box, ``alpha <= 1``: ``tx``, ``ty`` are at most
+    1e20, the cosines being clamped at 1e-10); ``log_factor`` as in :func:`beckmann`.
+    The cached ``tx``, ``ty`` and ``weight`` are float32; ``exp`` is
+    :func:`~brdffit.kernels.elementary.fast_exp_7` (within 5e-11) and the last
+    division a true one (the divider is otherwise idle here: measured with the
+    shorter ``exp`` and without the upper clamp of ``s``, 3.09 -> 2.78 ns a pair)."""
     if a <= 0.0:
         out[:] = b
         return out
@@ -192,34 +194,48 @@ def beckmann_anisotropic(
     log_scale = math.log(a * _INV_PI / (alpha_u * alpha_v))
     s_min = 1.0 / (A_MAX * A_MAX)
     for i in range(out.shape[0]):
-        s_i = min(max(u2 * tx_i[i] + v2 * ty_i[i], s_min), RSQRT_MAX)  # at most 2e20
-        s_o = min(max(u2 * tx_o[i] + v2 * ty_o[i], s_min), RSQRT_MAX)
+        s_i = max(u2 * tx_i[i] + v2 * ty_i[i], s_min)  # at most 2e20
+        s_o = max(u2 * tx_o[i] + v2 * ty_o[i], s_min)
         fresnel = f0 + (1.0 - f0) * weight[i]
         exponent = log_scale + log_factor[i] - (tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2)
         n_i, d_i = _beckmann_g1_terms(rsqrt(s_i))  # at most A_MAX (1 + 2e-13)
         n_o, d_o = _beckmann_g1_terms(rsqrt(s_o))
-        out[i] = b + fresnel * fast_exp_short(exponent) * (n_i * n_o) * reciprocal_short(d_i * d_o)
+        out[i] = b + fresnel * fast_exp_7(exponent) * (n_i * n_o) / (d_i * d_o)
     return out
+
+
+@inline
+def ggx_anisotropic_dg(tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, inv_4_cos, inv_u2, inv_v2, u2, v2):
+    """``D G1(L) G1(V) / (4 (N.L)(N.V))`` of anisotropic GGX without its constant ``4 /
+    (pi alpha_u alpha_v)``: ``c^2 inv_4_cos / (t^2 g)``, ``c = 1 + tan2_t + tan2_b = 1 /
+    (N.H)^2`` (:func:`~brdffit.kernels.inputs.inv_4_cos32` says why not the whole
+    factor), ``t`` and ``g`` as in :func:`ggx_anisotropic` (``sqrt(m) = m rsqrt(m)``)."""
+    c = 1.0 + tan2_t + tan2_b
+    t = 1.0 + tan2_t * inv_u2 + tan2_b * inv_v2
+    m_i = min(1.0 + u2 * tx_i + v2 * ty_i, RSQRT_MAX)
+    m_o = min(1.0 + u2 * tx_o + v2 * ty_o, RSQRT_MAX)
+    g = (1.0 + m_i * rsqrt(m_i)) * (1.0 + m_o * rsqrt(m_o))
+    return (c * c) * inv_4_cos / (t * t * g)
 
 
 @wide
 @jit
 def ggx_anisotropic(
-    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, weight, alpha_u, alpha_v, f0, a, b, out
+    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, inv_4_cos, weight, alpha_u, alpha_v, f0, a, b, out
 ):
     """Anisotropic GGX (Heitz 2014, section 5.4): ``D = 1 / (pi alpha_u alpha_v (N.H)^4
     t^2)``, ``t = 1 + tan2_t/alpha_u^2 + tan2_b/alpha_v^2``, and Smith ``G1 = 2 / (1 +
-    sqrt(m))``, ``m = 1 + alpha_u^2 tx + alpha_v^2 ty``, of L and of V; ``factor`` is
-    ``1 / (4 (N.L)(N.V) (N.H)^4)``. ``sqrt(m) = m rsqrt(m)``: no division but the
-    last. The cached inputs but ``tan2_t``, ``tan2_b`` are float32."""
+    sqrt(m))``, ``m = 1 + alpha_u^2 tx + alpha_v^2 ty``, of L and of V; ``inv_4_cos`` is
+    ``1 / (4 (N.L)(N.V))`` (:func:`ggx_anisotropic_dg`). No division but the last. The
+    cached inputs but ``tan2_t``, ``tan2_b`` are float32."""
     inv_u2, inv_v2 = 1.0 / (alpha_u * alpha_u), 1.0 / (alpha_v * alpha_v)
     u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
     scale = 4.0 * a * _INV_PI / (alpha_u * alpha_v)
     for i in range(out.shape[0]):
-        t = 1.0 + tan2_t[i] * inv_u2 + tan2_b[i] * inv_v2
-        m_i = min(1.0 + u2 * tx_i[i] + v2 * ty_i[i], RSQRT_MAX)
-        m_o = min(1.0 + u2 * tx_o[i] + v2 * ty_o[i], RSQRT_MAX)
-        g = (1.0 + m_i * rsqrt(m_i)) * (1.0 + m_o * rsqrt(m_o))
         fresnel = f0 + (1.0 - f0) * weight[i]
-        out[i] = b + scale * factor[i] * fresnel / (t * t * g)
+        dg = ggx_anisotropic_dg(
+            tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], inv_4_cos[i],
+            inv_u2, inv_v2, u2, v2,
+        )  # fmt: skip
+        out[i] = b + scale * fresnel * dg
     return out

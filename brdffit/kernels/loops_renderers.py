@@ -27,6 +27,7 @@ import math
 from ..models.renderer_native import PERFECT_K_MIN
 from ._compile import jit
 from .loops import _twice_fresnel_dielectric
+from .loops_microfacet import ggx_anisotropic_dg, wide
 from .loops_principled import (  # noqa: F401 (the loops bind_renderers looks up here)
     _inline,
     principled,
@@ -45,17 +46,6 @@ def _ggx_dg(tan2_h, tan2_i, tan2_o, factor, inv_a2, alpha2):
     ``4 / (pi alpha^2)``; ``factor`` is ``1 / (4 (N.L)(N.V) (N.H)^4)``."""
     t = 1.0 + tan2_h * inv_a2
     g = (1.0 + math.sqrt(1.0 + alpha2 * tan2_i)) * (1.0 + math.sqrt(1.0 + alpha2 * tan2_o))
-    return factor / (t * t * g)
-
-
-@_inline
-def _ggx_dg_anisotropic(tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, inv_u2, inv_v2, u2, v2):
-    """As :func:`_ggx_dg` with ``alpha_u`` along T, ``alpha_v`` along B (Heitz 2014,
-    section 5.4), without its constant ``4 / (pi alpha_u alpha_v)``."""
-    t = 1.0 + tan2_t * inv_u2 + tan2_b * inv_v2
-    g = (1.0 + math.sqrt(1.0 + u2 * tx_i + v2 * ty_i)) * (
-        1.0 + math.sqrt(1.0 + u2 * tx_o + v2 * ty_o)
-    )
     return factor / (t * t * g)
 
 
@@ -104,6 +94,7 @@ def _rotated_spec(hx, hy, sx_i, sy_i, sx_o, sy_o, at, ab, inv_t2, inv_b2, c, s):
     return 1.0 / (q * q * root)
 
 
+@wide
 @jit
 def gltf_anisotropic(
     hx, hy, sx_i, sy_i, sx_o, sy_o, inv_4_cos, weight,
@@ -168,25 +159,29 @@ def conductor(tan2_h, tan2_i, tan2_o, factor, cos_d, alpha2, eta, k, a, out):
     return out
 
 
+@wide
 @jit
 def conductor_anisotropic(
-    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, factor, cos_d, alpha_u, alpha_v, eta, k, a, out
+    tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, inv_4_cos, cos_d, alpha_u, alpha_v, eta, k, a, out
 ):
-    """:func:`conductor` with anisotropic GGX (``alpha_u`` along T, ``alpha_v`` along B)."""
+    """:func:`conductor` with anisotropic GGX (``alpha_u`` along T, ``alpha_v`` along B),
+    the ``D G`` of anisotropic GGX's loop
+    (:func:`~brdffit.kernels.loops_microfacet.ggx_anisotropic_dg`, float32 inputs:
+    :func:`~brdffit.kernels.inputs_renderers.conductor_anisotropic_inputs`)."""
     u2, v2 = alpha_u * alpha_u, alpha_v * alpha_v
     inv_u2, inv_v2 = 1.0 / u2, 1.0 / v2
     scale = 4.0 * a * _INV_PI / (alpha_u * alpha_v)
     e2_k2, four_e2k2 = eta * eta - k * k, 4.0 * (eta * eta) * (k * k)
     if eta == 0.0 and k >= PERFECT_K_MIN:  # F = 1: V.H is not read
         for i in range(out.shape[0]):
-            out[i] = scale * _ggx_dg_anisotropic(
-                tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], factor[i],
+            out[i] = scale * ggx_anisotropic_dg(
+                tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], inv_4_cos[i],
                 inv_u2, inv_v2, u2, v2,
             )  # fmt: skip
         return out
     for i in range(out.shape[0]):
-        lobe = scale * _ggx_dg_anisotropic(
-            tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], factor[i],
+        lobe = scale * ggx_anisotropic_dg(
+            tan2_t[i], tan2_b[i], tx_i[i], ty_i[i], tx_o[i], ty_o[i], inv_4_cos[i],
             inv_u2, inv_v2, u2, v2,
         )  # fmt: skip
         out[i] = lobe * _fresnel_conductor(cos_d[i], e2_k2, four_e2k2)

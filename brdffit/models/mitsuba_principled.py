@@ -27,7 +27,7 @@ import math
 from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param
 from .microfacet import _schlick_weight
-from .renderers import anisotropic_lobe, isotropic_lobe
+from .renderers import FLOAT32, anisotropic_lobe, isotropic_lobe
 from .shared import fresnel_dielectric, schlick_weight
 
 __all__ = ["MODELS", "principled_alphas", "principled_eta"]
@@ -110,7 +110,7 @@ MITSUBA_PRINCIPLED = Model(
     reference=_REFERENCE,
     design=lambda geometry, shape: _design(geometry, shape, None),
     held=("specular",),
-    doc="Mitsuba 3 principled (reflection).\n\n" + _DOC,
+    doc="Mitsuba 3 principled (reflection).\n\n" + _DOC + FLOAT32.format(error="3e-7"),
 )
 
 MITSUBA_PRINCIPLED_ANISOTROPIC = Model(
@@ -130,7 +130,9 @@ MITSUBA_PRINCIPLED_ANISOTROPIC = Model(
     reference=_REFERENCE,
     design=lambda geometry, shape: _design(geometry, shape, shape["anisotropic"]),
     held=("specular",),
-    doc="Mitsuba 3 principled (reflection) with anisotropic.\n\n" + _DOC,
+    doc="Mitsuba 3 principled (reflection) with anisotropic.\n\n"
+    + _DOC
+    + FLOAT32.format(error="4.2e-7"),
 )
 
 MODELS = (MITSUBA_PRINCIPLED, MITSUBA_PRINCIPLED_ANISOTROPIC)

@@ -44,7 +44,7 @@ from ..data.geometry import Geometry
 from .base import INV_PI, Classification, Design, Model, Param
 from .microfacet import _schlick_weight, inv_4_cos, schlick_fresnel
 from .params import roughness
-from .renderers import _tan2, anisotropic_lobe, isotropic_lobe
+from .renderers import FLOAT32, _tan2, anisotropic_lobe, isotropic_lobe
 from .shared import fresnel_conductor, ggx_d
 
 __all__ = ["MODELS", "GLTF_F0", "gltf_specular", "conductor_fresnel", "perfect_conductor"]
@@ -187,7 +187,8 @@ GLTF_PBR_ANISOTROPIC = Model(
     design=_gltf_aniso_design,
     doc="glTF 2.0 metallic-roughness with KHR_materials_anisotropy.\n\n"
     "As ``gltf_pbr`` with ``alpha_t = alpha + (1 - alpha) anisotropy_strength^2`` along "
-    "the tangent rotated by ``anisotropy_rotation`` and ``alpha_b = alpha`` across it.\n",
+    "the tangent rotated by ``anisotropy_rotation`` and ``alpha_b = alpha`` across it.\n"
+    + FLOAT32.format(error="7e-8"),
 )
 
 
@@ -279,7 +280,9 @@ MITSUBA_ROUGHCONDUCTOR_ANISOTROPIC = Model(
     reference=_MITSUBA_REFERENCE,
     design=_conductor_aniso_design,
     held=("eta", "k"),
-    doc="Mitsuba 3 roughconductor (GGX) with alpha_u, alpha_v.\n\n" + _MITSUBA_DOC,
+    doc="Mitsuba 3 roughconductor (GGX) with alpha_u, alpha_v.\n\n"
+    + _MITSUBA_DOC
+    + FLOAT32.format(error="1.3e-7"),
 )
 
 MODELS = (

@@ -251,12 +251,16 @@ _SHADOWING = {
     "ggx": "exact Smith shadowing",
     "beckmann": "Smith shadowing (G1 within 2e-8 relative of the exact one)",
 }
-_FLOAT32 = (
+#: The note of the models whose compiled loop reads some inputs in float32 (their
+#: bounds: brdffit.kernels.inputs.F32_ERROR, tested against these notes).
+FLOAT32 = (
     "The compiled kernel (numba, 10,000 pairs or more) reads some parameter-free "
-    "inputs in float32: within 2e-7 relative of the float64 form "
+    "inputs in float32: within {error} relative of the float64 form "
     "(brdffit.kernels.inputs).\n"
 )
-_FLOAT32_NOTE = dict.fromkeys(("beckmann", "ggx_anisotropic", "beckmann_anisotropic"), _FLOAT32)
+_FLOAT32_NOTE = dict.fromkeys(
+    ("beckmann", "ggx_anisotropic", "beckmann_anisotropic"), FLOAT32.format(error="2e-7")
+)
 
 
 def _anisotropic_model(distribution: str) -> Model:

@@ -16,6 +16,14 @@ from brdffit import get_model
 pytestmark = pytest.mark.usefixtures("evaluation_path")
 
 
+def _rtol(name: str, evaluation_path: str) -> float:
+    """1e-9, plus what float32 inputs add to ``name``'s compiled loop
+    (brdffit.kernels.inputs.F32_ERROR: the anisotropic glTF and roughconductor)."""
+    from brdffit.kernels import inputs
+
+    return 1e-9 + (inputs.F32_ERROR.get(name, 0.0) if evaluation_path == "compiled" else 0.0)
+
+
 # ------------------------------------------------ references (math module only)
 def ggx_d(h, at, ab, rot=0.0):
     ht = h[0] * math.cos(rot) + h[1] * math.sin(rot)
@@ -108,15 +116,16 @@ def reference(name, wi, wo, p):
 
 
 @pytest.mark.parametrize("name, params", CASES)
-def test_equals_the_scalar_reference(name, params):
+def test_equals_the_scalar_reference(name, params, evaluation_path):
     wi, wo = hemisphere_pairs(300, seed=21, grazing=False)
     got = get_model(name).evaluate(wi, wo, params)
     want = [reference(name, a, b, params) for a, b in zip(wi, wo)]
-    np.testing.assert_allclose(got, want, rtol=1e-9)
+    np.testing.assert_allclose(got, want, rtol=_rtol(name, evaluation_path))
 
 
-def test_anisotropy_rotation_turns_the_highlight_about_the_normal():
-    """Rotating the directions by -r equals rotating the anisotropy by +r (tangent = x)."""
+def test_anisotropy_rotation_turns_the_highlight_about_the_normal(evaluation_path):
+    """Rotating the directions by -r equals rotating the anisotropy by +r (tangent = x)
+    (to the float32 rounding of the compiled loop's factor, on two geometries)."""
     model = get_model("gltf_pbr_anisotropic")
     wi, wo = hemisphere_pairs(300, seed=22, grazing=False)
     base = {"base_color": 0.5, "metallic": 1.0, "roughness": 0.3, "anisotropy_strength": 0.8}
@@ -124,7 +133,9 @@ def test_anisotropy_rotation_turns_the_highlight_about_the_normal():
     rot = np.array([[math.cos(r), -math.sin(r), 0], [math.sin(r), math.cos(r), 0], [0, 0, 1]])
     turned = model.evaluate(wi @ rot, wo @ rot, {**base, "anisotropy_rotation": 0.0})
     np.testing.assert_allclose(
-        model.evaluate(wi, wo, {**base, "anisotropy_rotation": r}), turned, rtol=1e-9
+        model.evaluate(wi, wo, {**base, "anisotropy_rotation": r}),
+        turned,
+        rtol=2 * _rtol(model.name, evaluation_path),
     )
     # Along x the highlight is wider (alpha_t > alpha_b): off-specular along x is brighter.
     wi1 = np.array([[0.0, 0.0, 1.0]] * 2)
