@@ -40,9 +40,10 @@ __all__ = ["Problem", "Solution", "linear_at_bounds"]
 class Problem:
     """Bind a model to measurements for fitting.
 
-    A Problem does not change after it is made: :meth:`solve` keeps everything
-    of one call (the shape, its constraint rows) in local variables, so threads
-    may share one Problem.
+    What a Problem answers does not change after it is made: :meth:`solve` keeps
+    everything of one call (the shape, its constraint rows) in local variables and
+    builds what it reuses (the linearised targets) once, in one assignment, so
+    threads may share one Problem (not across :meth:`let_go`).
 
     Parameters
     ----------
