@@ -106,11 +106,6 @@ def wide(dispatcher):
     return call
 
 
-def inline(function):
-    """``function`` compiled to be inlined into the loops that call it."""
-    return numba.njit(inline="always", fastmath=FLAGS)(function)
-
-
 @numba.njit(inline="always", fastmath=FLAGS)
 def rsqrt(x):
     """``1 / sqrt(x)`` for ``RSQRT_MIN <= x <= RSQRT_MAX`` without the divider: a
@@ -204,7 +199,7 @@ def beckmann_anisotropic(
     return out
 
 
-@inline
+@numba.njit(inline="always", fastmath=FLAGS)
 def ggx_anisotropic_dg(tan2_t, tan2_b, tx_i, ty_i, tx_o, ty_o, inv_4_cos, inv_u2, inv_v2, u2, v2):
     """``D G1(L) G1(V) / (4 (N.L)(N.V))`` of anisotropic GGX without its constant ``4 /
     (pi alpha_u alpha_v)``: ``c^2 inv_4_cos / (t^2 g)``, ``c = 1 + tan2_t + tan2_b = 1 /
