@@ -109,36 +109,32 @@ SPECS = {
 }
 
 
-def dielectric_fresnel(geometry, eta: float) -> np.ndarray:
-    """``F(V.H; eta)`` on the geometry's pairs, kept for the last ``eta`` asked.
+def dielectric_fresnel(geometry, eta: float, dtype=np.float64) -> np.ndarray:
+    """``F(V.H; eta)`` on the geometry's pairs, kept for the last ``eta`` asked, as
+    ``dtype`` (one slot per dtype).
 
     A fit usually holds the index (Mitsuba's principled ``specular``, roughplastic's
     ``eta``): the loops then read ``F`` (8 bytes a pair) instead of computing a square
     root and a division per pair (measured: principled 197 -> 262 M pairs/s); a new
     index costs one pass of :func:`~brdffit.kernels.loops_renderers.dielectric`. One
     slot, replaced as a whole (one assignment), so it never grows."""
-    slot = geometry.cached("kernels.dielectric_slot", dict)
+    key = "kernels.dielectric_slot"
+    slot = geometry.cached(key if dtype is np.float64 else f"{key}_{np.dtype(dtype)}", dict)
     last = slot.get("last")
     if last is None or last[0] != eta:
-        last = (eta, _loop("dielectric")(geometry.cos_d, eta, np.empty(geometry.m)))
+        last = (eta, _loop("dielectric")(geometry.cos_d, eta, np.empty(geometry.m, dtype)))
         slot["last"] = last
     return last[1]
 
 
 def dielectric_fresnel32(geometry, eta: float) -> np.ndarray:
-    """:func:`dielectric_fresnel` in float32 (the loop writes float32), in a one-slot
-    cache of its own, for the principled loop of unit directions
-    (:func:`~brdffit.kernels.inputs_renderers.principled_inputs` bounds the error).
+    """:func:`dielectric_fresnel` in float32 (the loop writes float32), in a slot of its
+    own, for the principled loops of float32 inputs (unit directions, anisotropic:
+    :func:`~brdffit.kernels.inputs_renderers.principled_inputs` bounds the error).
     Its rounding is within ``2^-24`` relative as the values are 0 or normal float32
     numbers: Mitsuba's index ``2 / (1 - sqrt(0.08 specular)) - 1`` is 1 (``F = 0``) or
     at least ``1 + 4.4e-16``, where ``F >= 4e-32`` at every angle (tested)."""
-    slot = geometry.cached("kernels.dielectric_slot32", dict)
-    last = slot.get("last")
-    if last is None or last[0] != eta:
-        single = _loop("dielectric")(geometry.cos_d, eta, np.empty(geometry.m, np.float32))
-        last = (eta, single)
-        slot["last"] = last
-    return last[1]
+    return dielectric_fresnel(geometry, eta, np.float32)
 
 
 class _Principled(_Coloured):
