@@ -149,7 +149,8 @@ def _h_axes(g: Geometry) -> tuple:
 
 def _axes32(g: Geometry) -> tuple:
     """:func:`_tan2_axes_of` L and of V and Schlick's ``(1 - V.H)^5``, in float32: the
-    inputs of both anisotropic microfacet loops that tolerate it; cached."""
+    inputs of the anisotropic GGX and Beckmann loops that tolerate it (and of the
+    anisotropic roughconductor's, but the weight); cached."""
 
     def compute():
         single = (
