@@ -77,8 +77,8 @@ def conductor_anisotropic_inputs(g: Geometry) -> tuple:
     Schlick's weight, then ``V.H`` in float64 for the conductor Fresnel factor.
 
     The ``tan^2`` axes of L and V and ``1 / (4 (N.L)(N.V))`` in float32, as anisotropic
-    GGX's (measured: the loop, limited by memory at 64 bytes a pair, 2.3 -> 1.55 ns a
-    pair with 44): ``G1(L) G1(V)`` within 6e-8, the factor within 6e-8, in all within
+    GGX's (measured: the loop, limited by memory at 64 bytes of inputs a pair, 2.3 ->
+    1.55 ns a pair with 44): ``G1(L) G1(V)`` within 6e-8, the factor within 6e-8, in all within
     :data:`~brdffit.kernels.inputs.CONDUCTOR_ANISOTROPIC_F32_ERROR` of the float64
     model (tested). ``V.H`` stays float64: the Fresnel factor of a conductor changes
     fast with it near grazing."""
