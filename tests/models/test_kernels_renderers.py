@@ -51,7 +51,8 @@ def _both(model, geometry, params) -> tuple:
 def test_the_fresnel_slot_follows_the_index_and_holds_one():
     """Principled at one ``specular``, another, the first again, then roughplastic on
     the same geometry: every value is the numpy model's, and the geometry keeps one
-    Fresnel array, that of the last index asked."""
+    Fresnel array per dtype, that of the last index asked (principled's loop of unit
+    directions reads the float32 one, roughplastic the float64 one)."""
     from brdffit.kernels.bind_renderers import dielectric_fresnel
     from brdffit.models.mitsuba_principled import principled_eta
 
@@ -61,6 +62,8 @@ def test_the_fresnel_slot_follows_the_index_and_holds_one():
         params = {**principled.defaults(), "specular": specular, "metallic": 0.3}
         compiled, reference = _both(principled, geometry, params)
         np.testing.assert_allclose(compiled, reference, rtol=_tolerance(principled.name), atol=0)
+    single = geometry.cached("kernels.dielectric_slot_float32", dict)
+    assert list(single) == ["last"] and single["last"][0] == principled_eta(0.5)
     plastic = get_model("mitsuba_roughplastic")
     params = {**plastic.defaults(), "eta": 2.0}
     compiled, reference = _both(plastic, geometry, params)
