@@ -164,3 +164,12 @@ def solve_both(problem, x) -> tuple:
     with kernels.use(False):
         plain = problem.solve(x)
     return compiled, plain
+
+
+def with_f32(base: float, name: str, compiled: bool = True) -> float:
+    """A relative tolerance ``base`` plus what float32 inputs add to ``name``'s
+    compiled loop (brdffit.kernels.inputs.F32_ERROR: 0 for the loops that read
+    float64 only, and for the numpy path, ``compiled`` False)."""
+    from brdffit.kernels import inputs
+
+    return base + (inputs.F32_ERROR.get(name, 0.0) if compiled else 0.0)

@@ -21,6 +21,7 @@ from helpers import (  # noqa: F401 (the fixture)
     hemisphere_pairs,
     random_params,
     stable_seed,
+    with_f32,
 )
 from scipy.special import erf
 
@@ -212,23 +213,15 @@ def _relative(got, expected) -> float:
     return float(np.max(np.abs(got[big] / expected[big] - 1.0), initial=0.0))
 
 
-def _tolerance(name: str) -> float:
-    """1e-11, plus what float32 inputs add to the models whose loops read some
-    (brdffit.kernels.inputs)."""
-    from brdffit.kernels import inputs
-
-    return 1e-11 + inputs.F32_ERROR.get(name, 0.0)
-
-
 @pytest.mark.parametrize("name", kernels.COMPILED_MODELS)
 def test_compiled_design_and_evaluation_equal_numpy_across_the_parameter_box(name):
     """Random parameters over the whole box (log-uniform where searched so) and its
     corners, on pairs including grazing ones: columns, offset and values agree with
     the numpy design to 1e-11 relative (exponents reach several hundred; one ulp of
     an exponent of 700 is a relative 1e-13 in the value), or within the stated error
-    of float32 inputs (:func:`_tolerance`)."""
+    of float32 inputs (helpers.with_f32)."""
     model = get_model(name)
-    tolerance = _tolerance(name)
+    tolerance = with_f32(1e-11, name)
     wi, wo = hemisphere_pairs(2000, seed=stable_seed(name))
     geometry = Geometry(wi, wo)
     rng = np.random.default_rng(stable_seed(name))
@@ -269,7 +262,7 @@ def test_float32_inputs_cost_what_their_bound_states(name):
         got = model.evaluate_prepared(geometry, params)
         with kernels.use(False):
             worst = max(worst, _relative(got, model.evaluate_prepared(geometry, params)))
-    bound = _tolerance(name) - 1e-11
+    bound = with_f32(0.0, name)
     assert bound / 10 < worst < bound, worst
     # the model's doc states a bound that holds
     stated = re.search(r"float32: within ([0-9.e-]+) relative", model.doc)
@@ -296,7 +289,7 @@ def test_float32_loops_agree_with_numpy_just_above_the_horizon(name, z):
     with kernels.use(False):
         expected = model.evaluate_prepared(geometry, params)
     assert np.all(np.isfinite(got)) and np.all(expected > 0.0)
-    assert _relative(got, expected) < _tolerance(name)
+    assert _relative(got, expected) < with_f32(1e-11, name)
 
 
 @pytest.mark.parametrize("name", kernels.COMPILED_MODELS)
@@ -313,7 +306,7 @@ def test_per_channel_coefficients_give_numpys_values(name):
     with kernels.use(False):
         expected = model.evaluate(wi, wo, params)
     assert got.shape == (wi.shape[0], 3)
-    assert _relative(got, expected) < _tolerance(name)
+    assert _relative(got, expected) < with_f32(1e-11, name)
 
 
 @pytest.mark.parametrize("name", ["blinn", "ggx", "ward_anisotropic"])
@@ -396,7 +389,7 @@ def test_a_batch_of_shapes_gives_each_rows_design(name):
     model, geometry, rows, batch = _batch_of_shapes(name, 300, 6, 4)
     design = model.design(geometry, batch)
     with kernels.use(False):
-        _assert_rows_are_designs(model, geometry, rows, design, _tolerance(name))
+        _assert_rows_are_designs(model, geometry, rows, design, with_f32(1e-11, name))
 
 
 @pytest.mark.parametrize("name", ["ggx_anisotropic", "beckmann_anisotropic"])

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import NEEDS_KERNELS, hemisphere_pairs
+from helpers import NEEDS_KERNELS, hemisphere_pairs, with_f32
 
 from brdffit import kernels
 from brdffit.data.geometry import Geometry
@@ -21,15 +21,6 @@ pytestmark = NEEDS_KERNELS
 
 #: fast_exp's flush (test_kernels.py): no exponential here, so values agree to rounding.
 TOLERANCE = 1e-12
-
-
-def _tolerance(name: str) -> float:
-    """:data:`TOLERANCE`, plus what float32 inputs add to the models whose loops read
-    some (brdffit.kernels.inputs.F32_ERROR: the anisotropic glTF and roughconductor,
-    principled's loop of unit directions)."""
-    from brdffit.kernels import inputs
-
-    return TOLERANCE + inputs.F32_ERROR.get(name, 0.0)
 
 
 #: Every renderer-native model with a compiled form (brdffit.kernels.bind_renderers).
@@ -61,7 +52,8 @@ def test_the_fresnel_slot_follows_the_index_and_holds_one():
     for specular in (0.5, 0.1, 0.5):
         params = {**principled.defaults(), "specular": specular, "metallic": 0.3}
         compiled, reference = _both(principled, geometry, params)
-        np.testing.assert_allclose(compiled, reference, rtol=_tolerance(principled.name), atol=0)
+        rtol = with_f32(TOLERANCE, principled.name)
+        np.testing.assert_allclose(compiled, reference, rtol=rtol, atol=0)
     single = geometry.cached("kernels.dielectric_slot_float32", dict)
     assert list(single) == ["last"] and single["last"][0] == principled_eta(0.5)
     plastic = get_model("mitsuba_roughplastic")
@@ -91,7 +83,7 @@ def test_per_channel_colours_combine_the_compiled_columns(name):
     with kernels.use(False):
         expected = model.evaluate(wi, wo, params)
     assert got.shape == (wi.shape[0], 3)
-    np.testing.assert_allclose(got, expected, rtol=_tolerance(name), atol=0)
+    np.testing.assert_allclose(got, expected, rtol=with_f32(TOLERANCE, name), atol=0)
 
 
 @pytest.mark.parametrize(
@@ -106,7 +98,7 @@ def test_the_perfect_conductor_skips_only_a_fresnel_factor_of_exactly_one(name, 
     wi, wo = hemisphere_pairs(800, seed=33)
     params = {**model.defaults(), "eta": eta, "k": k}
     compiled, reference = _both(model, Geometry(wi, wo), params)
-    np.testing.assert_allclose(compiled, reference, rtol=_tolerance(name), atol=0)
+    np.testing.assert_allclose(compiled, reference, rtol=with_f32(TOLERANCE, name), atol=0)
     if (eta, k) == (0.0, 0.0):  # at L = V = N, half of the perfect conductor's value
         at_normal = (wi[:, 2] == 1.0) & (wo[:, 2] == 1.0)
         perfect, _ = _both(model, Geometry(wi, wo), {**params, "k": 1.0})
@@ -216,7 +208,7 @@ def test_directions_off_unit_length_give_the_numpy_values(name):
     params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
     geometry = Geometry(wi, wo)
     # principled's loop for directions off unit length reads float64 only
-    tolerance = TOLERANCE if name == "mitsuba_principled" else _tolerance(name)
+    tolerance = TOLERANCE if name == "mitsuba_principled" else with_f32(TOLERANCE, name)
     compiled, reference = _both(model, geometry, params)
     np.testing.assert_allclose(compiled, reference, rtol=tolerance, atol=0)
     shape = {p.name: params[p.name] for p in model.shape_params}
@@ -244,7 +236,7 @@ def test_directions_just_above_the_horizon_give_the_numpy_values(name, z):
     params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
     compiled, reference = _both(model, Geometry(wi, wo), params)
     assert np.all(np.isfinite(reference))
-    np.testing.assert_allclose(compiled, reference, rtol=_tolerance(name), atol=0)
+    np.testing.assert_allclose(compiled, reference, rtol=with_f32(TOLERANCE, name), atol=0)
 
 
 def test_unit_directions_decides_which_principled_loop_runs():

@@ -9,20 +9,11 @@ import math
 
 import numpy as np
 import pytest
-from helpers import hemisphere_pairs, mitsuba_eval
+from helpers import hemisphere_pairs, mitsuba_eval, with_f32
 
 from brdffit import get_model
 
 pytestmark = pytest.mark.usefixtures("evaluation_path")
-
-
-def _rtol(name: str, evaluation_path: str) -> float:
-    """1e-9, plus what float32 inputs add to ``name``'s compiled loop
-    (brdffit.kernels.inputs.F32_ERROR: the anisotropic glTF and roughconductor,
-    Mitsuba's principled)."""
-    from brdffit.kernels import inputs
-
-    return 1e-9 + (inputs.F32_ERROR.get(name, 0.0) if evaluation_path == "compiled" else 0.0)
 
 
 # ------------------------------------------------ references (math module only)
@@ -121,7 +112,7 @@ def test_equals_the_scalar_reference(name, params, evaluation_path):
     wi, wo = hemisphere_pairs(300, seed=21, grazing=False)
     got = get_model(name).evaluate(wi, wo, params)
     want = [reference(name, a, b, params) for a, b in zip(wi, wo)]
-    np.testing.assert_allclose(got, want, rtol=_rtol(name, evaluation_path))
+    np.testing.assert_allclose(got, want, rtol=with_f32(1e-9, name, evaluation_path == "compiled"))
 
 
 def test_anisotropy_rotation_turns_the_highlight_about_the_normal(evaluation_path):
@@ -136,7 +127,7 @@ def test_anisotropy_rotation_turns_the_highlight_about_the_normal(evaluation_pat
     np.testing.assert_allclose(
         model.evaluate(wi, wo, {**base, "anisotropy_rotation": r}),
         turned,
-        rtol=2 * _rtol(model.name, evaluation_path),
+        rtol=2 * with_f32(1e-9, model.name, evaluation_path == "compiled"),
     )
     # Along x the highlight is wider (alpha_t > alpha_b): off-specular along x is brighter.
     wi1 = np.array([[0.0, 0.0, 1.0]] * 2)
@@ -268,11 +259,12 @@ PRINCIPLED = [
 
 @pytest.mark.parametrize("name, params", PRINCIPLED)
 def test_mitsuba_principled_equals_reference_and_mitsuba(name, params, evaluation_path):
-    """Within :func:`_rtol` of the scalar reference; within 1e-4 of Mitsuba (float32)."""
+    """Within 1e-9 of the scalar reference (plus the compiled loop's float32 bound:
+    helpers.with_f32); within 1e-4 of Mitsuba (float32)."""
     wi, wo = hemisphere_pairs(200, seed=25, grazing=False)
     f = get_model(name).evaluate(wi, wo, params)
     want = [principled_reference(a, b, params) for a, b in zip(wi, wo)]
-    np.testing.assert_allclose(f, want, rtol=_rtol(name, evaluation_path))
+    np.testing.assert_allclose(f, want, rtol=with_f32(1e-9, name, evaluation_path == "compiled"))
     d = {"type": "principled", "base_color": {"type": "rgb", "value": [params["base_color"]] * 3}}
     d |= {k: v for k, v in params.items() if k != "base_color"}
     got = mitsuba_eval(d, wi, wo)[:, 0] / wo[:, 2]
