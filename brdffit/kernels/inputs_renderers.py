@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data.geometry import Geometry
+from ..data.geometry import MIN_COSINE, Geometry
 from .inputs import _axes32, _h_axes, inv_4_cos32, microfacet_inputs
 
 __all__ = [
@@ -35,9 +35,9 @@ def gltf_inputs(g: Geometry) -> tuple:
 
 
 def _slopes_of(w: np.ndarray) -> tuple:
-    """``x / z`` and ``y / z`` of directions ``w``, ``z`` clamped at 1e-300 as the
-    glTF model's ``Lambda`` does (not at the cosines' 1e-10)."""
-    z = np.maximum(w[:, 2], 1e-300)
+    """``x / z`` and ``y / z`` of directions ``w``, ``z`` clamped at the cosines'
+    :data:`~brdffit.data.geometry.MIN_COSINE` as the glTF model's ``Lambda`` does."""
+    z = np.maximum(w[:, 2], MIN_COSINE)
     return w[:, 0] / z, w[:, 1] / z
 
 

@@ -40,7 +40,7 @@ import math
 
 import numpy as np
 
-from ..data.geometry import Geometry
+from ..data.geometry import MIN_COSINE, Geometry
 from .base import INV_PI, Classification, Design, Model, Param
 from .microfacet import _schlick_weight, inv_4_cos, schlick_fresnel
 from .params import roughness
@@ -68,11 +68,13 @@ _MITSUBA_REFERENCE = (
 # --------------------------------------------------------------- glTF pieces
 def _lambda_ggx(v: np.ndarray, alpha_t: float, alpha_b: float, rotation: float):
     """Smith ``Lambda`` of GGX along directions ``v`` (M, 3): ``(sqrt(1 + (alpha_t^2
-    v_t^2 + alpha_b^2 v_b^2) / v_z^2) - 1) / 2`` with ``t`` the rotated tangent."""
+    v_t^2 + alpha_b^2 v_b^2) / v_z^2) - 1) / 2`` with ``t`` the rotated tangent, ``v_z``
+    clamped as every model's cosines (:data:`~brdffit.data.geometry.MIN_COSINE`), so
+    that no anisotropy is the isotropic model at grazing angles too."""
     c, s = math.cos(rotation), math.sin(rotation)
     vt = v[:, 0] * c + v[:, 1] * s
     vb = v[:, 1] * c - v[:, 0] * s
-    vz = np.maximum(v[:, 2], 1e-300)
+    vz = np.maximum(v[:, 2], MIN_COSINE)
     x = ((alpha_t * vt) ** 2 + (alpha_b * vb) ** 2) / (vz * vz)
     return 0.5 * (np.sqrt(1.0 + x) - 1.0)
 
