@@ -181,12 +181,14 @@ def _fisher(problem, params: dict, deadline=None) -> dict:
     rows = _rows(problem)
     geometry = _geometry(problem, rows)
     base = _predict(problem, params, geometry)
-    w, target = problem.loss.linearised(base, _context(problem, rows))
-    w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], base.shape)
+    ctx = _context(problem, rows)
+    unit = problem.loss.name == "l2" and ctx.weights is None  # weights of ones: none
+    w, target = (None, ctx.y) if unit else problem.loss.linearised(base, ctx)
+    if not unit:
+        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], base.shape)
     names, kinds, sources, layout = _jacobian(problem, params, geometry, base, deadline)
     if not layout:
         return {}
-    unit = bool((w == 1.0).all())  # l2 without weights: no products with ones
     info = channel_information(sources, layout, None if unit else np.sqrt(w))
     info *= problem.geometry.m / len(rows)
     dof = max(base.size * problem.geometry.m / len(rows) - len(names), 1.0)
