@@ -47,7 +47,7 @@ from dataclasses import fields, replace
 
 import numpy as np
 
-from .information import channel_information, inverse_diagonal
+from .information import channel_information, null_and_variance
 from .information import information as _information  # noqa: F401 (the plain way, tested)
 from .problem import linear_at_bounds
 
@@ -74,6 +74,8 @@ RANK_RTOL = 1e-12
 MAX_RELATIVE_WIDTH = 1.0
 #: Step of the central differences, in the search space (log10 or a share of the range).
 STEP = 1e-4
+#: Coefficients' columns from the model's design (exact), not by differences.
+EXACT_COEFFICIENTS = True
 #: Incidence angles (degrees) below this carry no azimuth.
 NORMAL_INCIDENCE = 1.0
 #: Folded incidence azimuths within this many degrees count as one.
@@ -269,9 +271,10 @@ def _jacobian(problem, params: dict, geometry, base, deadline=None) -> tuple:
         kinds.append("log" if p.log_scale else "linear")
         layout.append((len(sources), -1))
         sources.append(diff)
+    design = _design(problem, params, geometry)
     for p in problem.model.linear_params:
         if p.name not in problem.fixed:
-            labels = _coefficient_columns(problem, params, geometry, base, p, deadline)
+            labels = _coefficient_columns(problem, params, geometry, base, p, deadline, design)
             if labels:
                 source, labels = labels
                 for label, c in labels:
@@ -282,7 +285,16 @@ def _jacobian(problem, params: dict, geometry, base, deadline=None) -> tuple:
     return names, kinds, sources, layout
 
 
-def _coefficient_columns(problem, params, geometry, base, p, deadline):
+def _design(problem, params: dict, geometry):
+    """The model's design at the fitted shape (the coefficients' columns), where its
+    linear parameters are its coefficients; None where they are mapped to them."""
+    model = problem.model
+    if not EXACT_COEFFICIENTS or model.to_coefficients is not None:
+        return None
+    return model.design(geometry, {p.name: params[p.name] for p in model.shape_params})
+
+
+def _coefficient_columns(problem, params, geometry, base, p, deadline, design=None):
     """The derivatives (M, C) of the prediction by linear parameter ``p``, each channel by
     its own value, and (label, channel) of each channel where it is inside its range (at
     a bound, the bound decides it); None when it is inside in none. One evaluation
@@ -292,11 +304,15 @@ def _coefficient_columns(problem, params, geometry, base, p, deadline):
     inside = (value > p.lower) & (value < p.upper)  # those at a bound were set to it
     if not inside.any():
         return None
-    h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
-    shifted = value + h
-    diff = _predict(problem, {**params, p.name: _as_param(shifted)}, geometry, deadline)
-    diff -= base
-    diff /= np.where(inside, h, 1.0)  # the channels at a bound are not read
+    if design is not None:  # the model is linear in it: its column is the derivative
+        column = np.asarray(design.columns[problem.model.coefficients.index(p.name)], float)
+        diff = np.broadcast_to(column if column.ndim == 2 else column[..., None], base.shape)
+    else:
+        h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
+        shifted = value + h
+        diff = _predict(problem, {**params, p.name: _as_param(shifted)}, geometry, deadline)
+        diff -= base
+        diff /= np.where(inside, h, 1.0)  # the channels at a bound are not read
     channels = problem.data.channels
     labels = [(p.name if problem.n_channels == 1 else f"{p.name}[{channels[c]}]", int(c))
               for c in np.flatnonzero(inside)]  # fmt: skip
@@ -333,7 +349,7 @@ def _judge(names, kinds, info, params) -> dict:
     if live.size == 0:
         return _by_parameter(out)
     unit = info[np.ix_(live, live)] / np.outer(scale[live], scale[live])
-    null_sets, variance = _null_and_variance(unit)
+    null_sets, variance = null_and_variance(unit, RANK_RTOL)
     for positions in null_sets:
         involved = [live[i] for i in positions]
         for i in involved:
@@ -361,25 +377,6 @@ def _judge(names, kinds, info, params) -> dict:
             f"the data constrain it only to {spread} (1 sigma, from the Fisher information)"
         )
     return _by_parameter(out)
-
-
-def _null_and_variance(unit: np.ndarray, shortcut: bool = True) -> tuple:
-    """The null directions of ``unit`` (each as the positions with weight in it) and the
-    diagonal of its inverse on the others (the pseudo-inverse of the eigendecomposition
-    without them). With ``shortcut``, by the Cholesky factor where it proves there is no
-    null direction (:func:`~brdffit.fitting.information.inverse_diagonal`)."""
-    variance = inverse_diagonal(unit, RANK_RTOL) if shortcut else None
-    if variance is not None:
-        return [], variance
-    eigval, eigvec = np.linalg.eigh(unit)
-    null = eigval < RANK_RTOL * eigval.max()
-    sets = []
-    for k in np.flatnonzero(null):
-        weight = eigvec[:, k] ** 2
-        sets.append(np.flatnonzero(weight > 0.01 * weight.max()))
-    keep = ~null
-    cov = (eigvec[:, keep] / eigval[keep]) @ eigvec[:, keep].T
-    return sets, np.diag(cov)
 
 
 def _by_parameter(out: dict) -> dict:

@@ -28,7 +28,13 @@ import numpy as np
 
 from .channels import dot_by_channel
 
-__all__ = ["CERTIFY_MARGIN", "channel_information", "information", "inverse_diagonal"]
+__all__ = [
+    "CERTIFY_MARGIN",
+    "channel_information",
+    "information",
+    "inverse_diagonal",
+    "null_and_variance",
+]
 
 #: :func:`inverse_diagonal` answers only when the smallest eigenvalue is proved to be at
 #: least this many times ``rtol`` times the largest: far above the rounding of the
@@ -131,3 +137,22 @@ def inverse_diagonal(unit: np.ndarray, rtol: float) -> np.ndarray | None:
     if not np.isfinite(total) or total * CERTIFY_MARGIN * rtol * len(unit) > 1.0:
         return None
     return diagonal
+
+
+def null_and_variance(unit: np.ndarray, rtol: float, shortcut: bool = True) -> tuple:
+    """The null directions of ``unit`` (symmetric, unit diagonal), the eigenvectors of
+    eigenvalues below ``rtol`` of the largest, each as the positions with weight in it,
+    and the diagonal of the pseudo-inverse without them. With ``shortcut``, by the
+    Cholesky factor where it proves there is none (:func:`inverse_diagonal`)."""
+    variance = inverse_diagonal(unit, rtol) if shortcut else None
+    if variance is not None:
+        return [], variance
+    eigval, eigvec = np.linalg.eigh(unit)
+    null = eigval < rtol * eigval.max()
+    sets = []
+    for k in np.flatnonzero(null):
+        weight = eigvec[:, k] ** 2
+        sets.append(np.flatnonzero(weight > 0.01 * weight.max()))
+    keep = ~null
+    cov = (eigvec[:, keep] / eigval[keep]) @ eigvec[:, keep].T
+    return sets, np.diag(cov)

@@ -51,7 +51,9 @@ def test_the_cholesky_diagonal_is_the_eigendecomposition_s():
         info = a.T @ a
         scale = np.sqrt(np.diag(info))
         unit = info / np.outer(scale, scale)
-        null, plain = identifiability._null_and_variance(unit, shortcut=False)
+        null, plain = information.null_and_variance(
+            unit, identifiability.RANK_RTOL, shortcut=False
+        )
         got = information.inverse_diagonal(unit, identifiability.RANK_RTOL)
         assert null == [] and got is not None
         assert_allclose(got, plain, rtol=1e-9)
@@ -67,7 +69,7 @@ def test_a_singular_information_goes_to_the_eigendecomposition(singular):
     if singular == "negative":
         unit[0, 1] = unit[1, 0] = 1.5  # not positive definite
     assert information.inverse_diagonal(unit, identifiability.RANK_RTOL) is None
-    null, _ = identifiability._null_and_variance(unit)
+    null, _ = information.null_and_variance(unit, identifiability.RANK_RTOL)
     assert singular == "near" or null  # 1e-18 of the largest eigenvalue: null, by eigh
 
 
@@ -113,7 +115,8 @@ def test_a_weighted_or_transformed_fit_takes_its_residuals():
 
 
 def _plain(monkeypatch):
-    """The identifiability check with the column-by-column information and eigh."""
+    """The identifiability check with the column-by-column information, eigh, and the
+    coefficients' columns by differences of two evaluations."""
     monkeypatch.setattr(
         identifiability,
         "channel_information",
@@ -121,7 +124,8 @@ def _plain(monkeypatch):
             _columns(s, layout), np.ones_like(s[0]) if w is None else w
         ),
     )
-    monkeypatch.setattr(identifiability, "inverse_diagonal", lambda unit, rtol: None)  # fmt: skip
+    monkeypatch.setattr(information, "inverse_diagonal", lambda unit, rtol: None)  # fmt: skip
+    monkeypatch.setattr(identifiability, "EXACT_COEFFICIENTS", False)
 
 
 def _in_plane():
@@ -153,3 +157,38 @@ def test_the_identifiability_verdicts_are_those_of_the_plain_way(case, monkeypat
     got = identifiability.unidentified(problem, dict(result.params))
     _plain(monkeypatch)
     assert got == identifiability.unidentified(problem, dict(result.params))
+
+
+TRUTHS = {
+    "ggx": {"kd": [0.2, 0.1, 0.3], "ks": [0.5, 0.6, 0.0], "alpha": 0.2, "f0": 0.04},
+    "blinn": {"kd": [0.2, 0.1, 0.3], "ks": [0.5, 0.6, 0.7], "n": 40.0},
+    "ward": {"kd": [0.0, 0.1, 0.3], "ks": [0.4, 0.5, 0.6], "alpha": 0.2},
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("model", list(TRUTHS))
+def test_the_design_s_columns_are_the_differences_of_two_evaluations(model):
+    """A linear parameter's Jacobian column is its design column (the model is linear in
+    it), what the difference of two evaluations gives up to its rounding."""
+    data = make_data(model, TRUTHS[model], n=600)
+    problem = Problem(data, model, loss="l2")
+    params = dict(brdffit.fit(data, model, loss="l2").params)
+    params = identifiability._at_their_bounds(problem, params)
+    geometry = problem.geometry
+    base = identifiability._predict(problem, params, geometry)
+    design = identifiability._design(problem, params, geometry)
+    assert design is not None
+    checked = 0
+    for p in problem.model.linear_params:
+        exact = identifiability._coefficient_columns(problem, params, geometry, base, p, None,
+                                                     design)  # fmt: skip
+        plain = identifiability._coefficient_columns(problem, params, geometry, base, p, None)
+        assert (exact is None) == (plain is None)
+        if exact is None:
+            continue
+        assert exact[1] == plain[1]  # the same channels, labelled alike
+        for _, c in exact[1]:
+            scale = np.abs(base[:, c]).max() * 1e3  # the difference's rounding, over its step
+            assert_allclose(exact[0][:, c], plain[0][:, c], rtol=0, atol=1e-13 * scale)
+            checked += 1
+    assert checked >= 5
