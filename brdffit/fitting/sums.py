@@ -93,15 +93,15 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
     cos = np.ascontiguousarray(ctx.cos_i, dtype=float)
     w = None if ctx.weights is None else np.ascontiguousarray(ctx.weights, dtype=float)
     scale = 1e-3 * np.broadcast_to(ctx.y_scale, y.shape[1:]).astype(float)
-    linear = loops_sums.linear_sums(pred, y, cos, np.empty(0) if w is None else w, scale,
-                                    per_value(ctx.sigma), per_value(ctx.noise_sigma))  # fmt: skip
-    totals = dict(zip(loops_sums.NAMES, linear.tolist()))
-    totals.update(log=0.0, cbrt=0.0)
+    linear, every_w = np.zeros(len(loops_sums.NAMES)), np.empty(0) if w is None else w
+    sigma, noise = per_value(ctx.sigma), per_value(ctx.noise_sigma)
+    totals = dict(log=0.0, cbrt=0.0)
     buffers = np.empty((4, y.shape[1], BLOCK))
     for start in range(0, len(y), BLOCK):
         size = min(BLOCK, len(y) - start)
         fc, yc, f_log, y_log = buffers[:, :, :size]
-        loops_sums.project(pred, y, cos, start, fc, yc, f_log, y_log)
+        loops_sums.sums_and_project(pred, y, cos, every_w, scale, sigma, noise, start,
+                                    fc, yc, f_log, y_log, linear)  # fmt: skip
         weights = None if w is None else w[start : start + size]
         # ln(max(1 + f cos, 1e-12)) - ln(max(1 + y cos, 1e-12)) and the cube roots'
         # difference, in place (the formulas of _log_difference and _cbrt_difference)
@@ -111,6 +111,7 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
         )
         np.cbrt(fc, out=fc)
         totals["cbrt"] += _row_squares(np.subtract(fc, np.cbrt(yc, out=yc), out=fc), weights)
+    totals.update(zip(loops_sums.NAMES, linear.tolist()))
     return {name: totals[name] for name in [*names, "rss"]}
 
 
