@@ -224,7 +224,7 @@ def _context(problem, rows):
     for f in fields(ctx):
         value = getattr(ctx, f.name)
         if isinstance(value, np.ndarray) and value.shape[:1] == (m,):
-            subset[f.name] = value[rows]
+            subset[f.name] = np.take(value, rows, axis=0)  # faster than value[rows]
     return replace(ctx, **subset)
 
 
@@ -237,7 +237,8 @@ def _geometry(problem, rows: np.ndarray):
     geometry = problem.geometry
     if len(rows) == geometry.m:
         return geometry
-    return Geometry(geometry.wi[rows], geometry.wo[rows], check=False)
+    wi, wo = (np.take(w, rows, axis=0) for w in (geometry.wi, geometry.wo))  # 2x w[rows]
+    return Geometry(wi, wo, check=False)
 
 
 def _predict(problem, params: dict, geometry, deadline=None) -> np.ndarray:
