@@ -17,7 +17,7 @@ a 31-band fit of ``kd`` and ``ks``). :func:`information` is the plain way, from 
 columns themselves; the tests hold one to the other.
 
 :func:`inverse_diagonal` gives the diagonal of the inverse of the unit-diagonal
-information by its Cholesky factor when the factor proves that no eigenvalue lies
+information and the existence of its Cholesky factor prove that no eigenvalue lies
 below ``rtol`` of the largest (the check's rank test), and None otherwise, where the
 check takes the eigendecomposition: the same verdict, at a tenth of its cost.
 """
@@ -120,19 +120,18 @@ def inverse_diagonal(unit: np.ndarray, rtol: float) -> np.ndarray | None:
     """The diagonal of ``unit^-1`` when ``unit`` (symmetric, unit diagonal) is proved to
     have no eigenvalue below ``rtol`` of its largest; None when it is not.
 
-    With ``unit = L L^T`` (Cholesky), ``(unit^-1)_ii`` is the squared norm of column
-    ``i`` of ``L^-1`` and their sum is ``trace(unit^-1) = sum 1 / lambda``, so the
-    smallest eigenvalue is at least ``1 / trace(unit^-1)``; the largest is at most
+    When ``unit`` is positive definite (its Cholesky factor exists), the sum of the
+    diagonal of its inverse is ``trace(unit^-1) = sum 1 / lambda``, so the smallest
+    eigenvalue is at least ``1 / trace(unit^-1)``; the largest is at most
     ``trace(unit) = P``. The proof asks ``1 / trace(unit^-1) >= CERTIFY_MARGIN rtol P``
     (Golub and Van Loan, *Matrix Computations*, 4th ed., sections 2.3 and 4.2). A
     matrix that is not numerically positive definite fails the factorisation: None.
     """
     try:
-        factor = np.linalg.cholesky(unit)
+        np.linalg.cholesky(unit)  # positive definite, or no proof
     except np.linalg.LinAlgError:
         return None
-    inverse = np.linalg.inv(factor)
-    diagonal = np.einsum("ij,ij->j", inverse, inverse)
+    diagonal = np.diag(np.linalg.inv(unit)).copy()  # 120 us, the factor's inverse 160 us
     total = float(diagonal.sum())
     if not np.isfinite(total) or total * CERTIFY_MARGIN * rtol * len(unit) > 1.0:
         return None
