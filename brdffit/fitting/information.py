@@ -17,9 +17,10 @@ a 31-band fit of ``kd`` and ``ks``). :func:`information` is the plain way, from 
 columns themselves; the tests hold one to the other.
 
 :func:`inverse_diagonal` gives the diagonal of the inverse of the unit-diagonal
-information and the existence of its Cholesky factor prove that no eigenvalue lies
-below ``rtol`` of the largest (the check's rank test), and None otherwise, where the
-check takes the eigendecomposition: the same verdict, at a tenth of its cost.
+information when that diagonal and the existence of a Cholesky factor prove that no
+eigenvalue lies below ``rtol`` of the largest (the check's rank test), and None
+otherwise, where the check takes the eigendecomposition: the same verdict, at a third
+of its cost for 63 parameters.
 """
 
 from __future__ import annotations
