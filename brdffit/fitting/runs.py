@@ -13,7 +13,11 @@ import math
 
 import numpy as np
 
-__all__ = ["lexsort", "runs", "runs_by_row", "sign_codes"]
+__all__ = ["VECTOR_LENGTH", "VECTOR_ROWS", "lexsort", "runs", "runs_by_row", "sign_codes"]
+
+#: :func:`runs` counts rows together from this many rows of at most VECTOR_LENGTH signs.
+VECTOR_ROWS = 8
+VECTOR_LENGTH = 4096
 
 
 def lexsort(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
@@ -42,12 +46,16 @@ def runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ``sd^2 = 2 n+ n- (2 n+ n- - n) / (n^2 (n - 1))`` (Wald and Wolfowitz 1940,
     Ann. Math. Statist. 11, 147): large when residuals of one sign cluster. Signs,
     not values: one large residual cannot decide it, and unequal variances do not
-    matter. The rows without a zero are counted together (three reductions over
-    every row, not three per row: a 31-band fit's 62 rows took 0.45 ms), the others
-    as :func:`runs_by_row` does, and the statistics of every row formed at once; the
-    same integers and operations, so the same values.
+    matter. Many short rows (:data:`VECTOR_ROWS`, :data:`VECTOR_LENGTH`) are counted
+    together, those without a zero by three reductions over every row, and their
+    statistics formed at once (a 31-band fit's 31 rows of 1,439 signs: 120 -> 60 us);
+    others as :func:`runs_by_row` does (numpy's reductions along rows take 0.7 ns a
+    value, its flat counts 0.2: three rows of 275,000 signs, 575 against 146 us). The
+    same integers and operations either way, so the same values.
     """
     c, m = codes.shape
+    if c < VECTOR_ROWS or m > VECTOR_LENGTH:
+        return runs_by_row(codes)
     whole = codes.min(axis=1) > 0 if m else np.zeros(c, dtype=bool)
     n, n1, counted = np.full(c, m), np.empty(c, dtype=np.int64), np.empty(c, dtype=np.int64)
     if whole.any():

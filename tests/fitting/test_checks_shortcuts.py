@@ -73,7 +73,7 @@ def test_a_singular_information_goes_to_the_eigendecomposition(singular):
     assert singular == "near" or null  # 1e-18 of the largest eigenvalue: null, by eigh
 
 
-def test_the_runs_of_every_row_at_once_are_those_row_by_row():
+def test_the_runs_of_every_row_at_once_are_those_row_by_row(monkeypatch):
     rng = np.random.default_rng(6)
     codes = rng.integers(1, 3, (31, 500)).astype(np.int8)
     codes[3, ::7] = 0  # rows with zeros, counted row by row
@@ -82,6 +82,10 @@ def test_the_runs_of_every_row_at_once_are_those_row_by_row():
     codes[9] = 0
     for rows in (codes, codes[:, :1], codes[:, :0], codes[[0, 1]]):
         assert_equal(runs.runs(rows), runs.runs_by_row(rows))
+    calls = []
+    monkeypatch.setattr(runs, "runs_by_row", lambda c: calls.append(c.shape) or ())
+    runs.runs(codes)  # 31 rows of 500: counted together, not row by row
+    assert calls == []
 
 
 def _l2_and_chi2_fits():
