@@ -265,9 +265,11 @@ def _jacobian(problem, params: dict, geometry, base, deadline=None) -> tuple:
         h = STEP * (1.0 if p.log_scale else hi - lo)
         up, down = min(x + h, hi), max(x - h, lo)
         values = [10.0**v if p.log_scale else v for v in (up, down)]
-        diff = _predict(problem, {**params, p.name: values[0]}, geometry, deadline)
-        diff -= _predict(problem, {**params, p.name: values[1]}, geometry, deadline)
-        diff /= up - down
+        diff = np.subtract(
+            _predict(problem, {**params, p.name: values[0]}, geometry, deadline),
+            _predict(problem, {**params, p.name: values[1]}, geometry, deadline),
+        )
+        diff /= up - down  # in the new array: a model's own output is never written
         names.append(p.name)
         kinds.append("log" if p.log_scale else "linear")
         layout.append((len(sources), -1))
@@ -312,7 +314,7 @@ def _coefficient_columns(problem, params, geometry, base, p, deadline, design=No
         h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
         shifted = value + h
         diff = _predict(problem, {**params, p.name: _as_param(shifted)}, geometry, deadline)
-        diff -= base
+        diff = np.subtract(diff, base)
         diff /= np.where(inside, h, 1.0)  # the channels at a bound are not read
     channels = problem.data.channels
     labels = [(p.name if problem.n_channels == 1 else f"{p.name}[{channels[c]}]", int(c))
