@@ -33,8 +33,11 @@ checks, run on every fit, name those parameters with the reason
    :data:`MAX_RELATIVE_WIDTH` means the data do not fix even the parameter's
    order of magnitude.
 
-The Jacobian is taken by central differences (one-sided at a bound) on the
-model's own evaluation, in the parameters as reported. Above :data:`MAX_ENTRIES`
+A shape parameter's column is a central difference (one-sided at a bound) of the
+model's own evaluation, in the parameters as reported; a linear parameter's is the
+model's design column (a difference where the parameters are mapped to the
+coefficients). The information is formed channel by channel
+(:mod:`brdffit.fitting.information`). Above :data:`MAX_ENTRIES`
 it is formed on a seeded subset of the samples, the model evaluated on those
 pairs alone, and the information scaled back to all of them.
 """
@@ -74,8 +77,7 @@ RANK_RTOL = 1e-12
 MAX_RELATIVE_WIDTH = 1.0
 #: Step of the central differences, in the search space (log10 or a share of the range).
 STEP = 1e-4
-#: Coefficients' columns from the model's design (exact), not by differences.
-EXACT_COEFFICIENTS = True
+EXACT_COEFFICIENTS = True  #: Coefficients' columns from the design, not by differences.
 #: Incidence angles (degrees) below this carry no azimuth.
 NORMAL_INCIDENCE = 1.0
 #: Folded incidence azimuths within this many degrees count as one.
@@ -265,11 +267,10 @@ def _jacobian(problem, params: dict, geometry, base, deadline=None) -> tuple:
         h = STEP * (1.0 if p.log_scale else hi - lo)
         up, down = min(x + h, hi), max(x - h, lo)
         values = [10.0**v if p.log_scale else v for v in (up, down)]
-        diff = np.subtract(
-            _predict(problem, {**params, p.name: values[0]}, geometry, deadline),
-            _predict(problem, {**params, p.name: values[1]}, geometry, deadline),
-        )
-        diff /= up - down  # in the new array: a model's own output is never written
+        diff = _predict(problem, {**params, p.name: values[0]}, geometry, deadline)
+        diff = diff if diff.flags.writeable else diff.copy()  # written in place below
+        diff -= _predict(problem, {**params, p.name: values[1]}, geometry, deadline)
+        diff /= up - down
         names.append(p.name)
         kinds.append("log" if p.log_scale else "linear")
         layout.append((len(sources), -1))
@@ -289,19 +290,17 @@ def _jacobian(problem, params: dict, geometry, base, deadline=None) -> tuple:
 
 
 def _design(problem, params: dict, geometry):
-    """The model's design at the fitted shape (the coefficients' columns), where its
-    linear parameters are its coefficients; None where they are mapped to them."""
-    model = problem.model
-    if not EXACT_COEFFICIENTS or model.to_coefficients is not None:
-        return None
-    return model.design(geometry, {p.name: params[p.name] for p in model.shape_params})
+    """The model's design at the fitted shape where its linear parameters are its
+    coefficients (None where they are mapped to them, or not :data:`EXACT_COEFFICIENTS`)."""
+    model, shape = problem.model, {p.name: params[p.name] for p in problem.model.shape_params}
+    exact = EXACT_COEFFICIENTS and model.to_coefficients is None
+    return model.design(geometry, shape) if exact else None
 
 
 def _coefficient_columns(problem, params, geometry, base, p, deadline, design=None):
-    """The derivatives (M, C) of the prediction by linear parameter ``p``, each channel by
-    its own value, and (label, channel) of each channel where it is inside its range (at
-    a bound, the bound decides it); None when it is inside in none. One evaluation
-    serves every channel: a channel's values depend on its own linear parameters only."""
+    """The derivatives (M, C) of the prediction by linear parameter ``p`` (each channel by
+    its own value: one evaluation serves every channel), and (label, channel) of each
+    channel where it is inside its range (at a bound, the bound decides it) or None."""
     value = np.broadcast_to(np.asarray(params[p.name], dtype=float), (problem.n_channels,))
     span = (p.upper if math.isfinite(p.upper) else 1.0) - p.lower
     inside = (value > p.lower) & (value < p.upper)  # those at a bound were set to it
@@ -314,7 +313,8 @@ def _coefficient_columns(problem, params, geometry, base, p, deadline, design=No
         h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
         shifted = value + h
         diff = _predict(problem, {**params, p.name: _as_param(shifted)}, geometry, deadline)
-        diff = np.subtract(diff, base)
+        diff = diff if diff.flags.writeable else diff.copy()
+        diff -= base
         diff /= np.where(inside, h, 1.0)  # the channels at a bound are not read
     channels = problem.data.channels
     labels = [(p.name if problem.n_channels == 1 else f"{p.name}[{channels[c]}]", int(c))

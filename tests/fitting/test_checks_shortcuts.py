@@ -196,3 +196,23 @@ def test_the_design_s_columns_are_the_differences_of_two_evaluations(model):
             assert_allclose(exact[0][:, c], plain[0][:, c], rtol=0, atol=1e-13 * scale)
             checked += 1
     assert checked >= 5
+
+
+def test_a_read_only_evaluation_is_copied_not_written(monkeypatch):
+    """The differences are formed in the first evaluation's array; one a model hands out
+    read-only is copied first (the check would have raised, and said nothing)."""
+    data, model, loss = _fits(4)  # cook_torrance on RGB: differences for alpha-like shapes
+    problem = Problem(data, model, loss=loss)
+    params = dict(brdffit.fit(data, model, loss=loss).params)
+    want = identifiability.unidentified(problem, params)
+    original = type(problem.model).evaluate_prepared
+
+    def read_only(self, geometry, values, check=True):
+        out = np.array(original(self, geometry, values, check))
+        out.setflags(write=False)
+        return out
+
+    monkeypatch.setattr(identifiability, "EXACT_COEFFICIENTS", False)  # every column
+    plain = identifiability.unidentified(problem, params)
+    monkeypatch.setattr(type(problem.model), "evaluate_prepared", read_only)
+    assert identifiability.unidentified(problem, params) == plain == want
