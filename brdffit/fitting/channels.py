@@ -31,8 +31,8 @@ def _foldable(*arrays) -> bool:
 def abs_max_by_channel(a: np.ndarray) -> np.ndarray:
     """``np.abs(a).max(axis=0)`` of an (M, C) array, NaN where a channel has one."""
     a = np.asarray(a, dtype=float)
-    if not _foldable(a):
-        return np.abs(a).max(axis=0)
+    if not _foldable(a):  # max |a| = max(max a, -min a): the same value, no |a| formed
+        return np.maximum(a.max(axis=0), -a.min(axis=0))
     m, c = a.shape
     head = m - m % FOLD
     folded = a[:head].reshape(-1, FOLD * c)

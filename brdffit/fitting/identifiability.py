@@ -33,8 +33,11 @@ checks, run on every fit, name those parameters with the reason
    :data:`MAX_RELATIVE_WIDTH` means the data do not fix even the parameter's
    order of magnitude.
 
-The Jacobian is taken by central differences (one-sided at a bound) on the
-model's own evaluation, in the parameters as reported. Above :data:`MAX_ENTRIES`
+A shape parameter's column is a central difference (one-sided at a bound) of the
+model's own evaluation, in the parameters as reported; a linear parameter's is the
+model's design column (a difference where the parameters are mapped to the
+coefficients). The information is formed channel by channel
+(:mod:`brdffit.fitting.information`). Above :data:`MAX_ENTRIES`
 it is formed on a seeded subset of the samples, the model evaluated on those
 pairs alone, and the information scaled back to all of them.
 """
@@ -47,6 +50,8 @@ from dataclasses import fields, replace
 
 import numpy as np
 
+from .information import channel_information, null_and_variance
+from .information import information as _information  # noqa: F401 (the plain way, tested)
 from .problem import linear_at_bounds
 
 __all__ = ["ANISOTROPY", "MAX_RELATIVE_WIDTH", "RANK_RTOL", "unidentified"]
@@ -72,6 +77,7 @@ RANK_RTOL = 1e-12
 MAX_RELATIVE_WIDTH = 1.0
 #: Step of the central differences, in the search space (log10 or a share of the range).
 STEP = 1e-4
+EXACT_COEFFICIENTS = True  #: Coefficients' columns from the design, not by differences.
 #: Incidence angles (degrees) below this carry no azimuth.
 NORMAL_INCIDENCE = 1.0
 #: Folded incidence azimuths within this many degrees count as one.
@@ -179,51 +185,25 @@ def _fisher(problem, params: dict, deadline=None) -> dict:
     rows = _rows(problem)
     geometry = _geometry(problem, rows)
     base = _predict(problem, params, geometry)
-    w, target = problem.loss.linearised(base, _context(problem, rows))
-    w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], base.shape)
-    names, kinds, columns = _jacobian(problem, params, geometry, base, deadline)
-    if not columns:
+    ctx = _context(problem, rows)
+    unit = problem.loss.name == "l2" and ctx.weights is None  # weights of ones: none
+    w, target = (None, ctx.y) if unit else problem.loss.linearised(base, ctx)
+    if not unit:
+        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], base.shape)
+    names, kinds, sources, layout = _jacobian(problem, params, geometry, base, deadline)
+    if not layout:
         return {}
-    info = _information(columns, np.sqrt(w)) * (problem.geometry.m / len(rows))
+    info = channel_information(sources, layout, None if unit else np.sqrt(w))
+    info *= problem.geometry.m / len(rows)
     dof = max(base.size * problem.geometry.m / len(rows) - len(names), 1.0)
-    s2 = 1.0 if problem.loss.needs_sigma else float(np.sum(w * (target - base) ** 2)) / dof
+    d = np.subtract(target, base)
+    if problem.loss.needs_sigma:
+        s2 = 1.0
+    elif unit:
+        s2 = float(np.einsum("mc,mc->", d, d)) / dof
+    else:
+        s2 = float(np.einsum("mc,mc,mc->", w, d, d)) / dof
     return _judge(names, kinds, info / max(s2, 1e-300), params)
-
-
-def _information(columns: list, sqrt_w: np.ndarray) -> np.ndarray:
-    """``J^T W J`` of Jacobian columns: (M, C) arrays (shape parameters) and
-    ``(c, (M,))`` pairs (a coefficient of channel c, zero in the other channels).
-    On large data the products are einsums, not BLAS (:func:`_dot`, :func:`_gram`):
-    OpenBLAS runs them on every core, and its threads then spin, taking a core from
-    the rest of the fit (without OPENBLAS_NUM_THREADS=1 the misfit sorts after the
-    check took 0.26 s of CPU on a MERL file, not 0.07 s)."""
-    dense = [col * sqrt_w for col in columns if not isinstance(col, tuple)]
-    sparse = [(c, v * sqrt_w[:, c]) for c, v in (x for x in columns if isinstance(x, tuple))]
-    n_dense, size = len(dense), len(columns)
-    info = np.zeros((size, size))
-    if dense:
-        flat = np.stack([d.ravel() for d in dense], axis=1)
-        info[:n_dense, :n_dense] = _gram(flat)
-    for j, (c, v) in enumerate(sparse, n_dense):
-        info[:n_dense, j] = info[j, :n_dense] = [_dot(d[:, c], v) for d in dense]
-    for c in {c for c, _ in sparse}:
-        idx = [j for j, (cc, _) in enumerate(sparse, n_dense) if cc == c]
-        block = np.stack([sparse[j - n_dense][1] for j in idx], axis=1)
-        info[np.ix_(idx, idx)] = _gram(block)
-    return info
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> float:
-    """``a @ b``; by einsum above OpenBLAS's threading threshold of ``ddot`` (10,000)."""
-    return float(np.einsum("m,m->", a, b)) if a.size > 10_000 else float(a @ b)
-
-
-def _gram(a: np.ndarray) -> np.ndarray:
-    """``a.T @ a`` of a tall matrix; by einsum above 45,000 rows (a MERL check's 50,000
-    samples a channel: OpenBLAS threaded them and its threads spun), by BLAS below
-    (faster: a 31-band Cornell check's 44,600 values took 2.6 ms of wall time against
-    3.6 ms by einsum). Measured, not derived: OpenBLAS's own thresholds vary by call."""
-    return np.einsum("mi,mj->ij", a, a) if a.shape[0] > 45_000 else a.T @ a
 
 
 def _rows(problem) -> np.ndarray:
@@ -246,7 +226,7 @@ def _context(problem, rows):
     for f in fields(ctx):
         value = getattr(ctx, f.name)
         if isinstance(value, np.ndarray) and value.shape[:1] == (m,):
-            subset[f.name] = value[rows]
+            subset[f.name] = np.take(value, rows, axis=0)  # faster than value[rows]
     return replace(ctx, **subset)
 
 
@@ -259,7 +239,8 @@ def _geometry(problem, rows: np.ndarray):
     geometry = problem.geometry
     if len(rows) == geometry.m:
         return geometry
-    return Geometry(geometry.wi[rows], geometry.wo[rows], check=False)
+    wi, wo = (np.take(w, rows, axis=0) for w in (geometry.wi, geometry.wo))  # 2x w[rows]
+    return Geometry(wi, wo, check=False)
 
 
 def _predict(problem, params: dict, geometry, deadline=None) -> np.ndarray:
@@ -275,9 +256,11 @@ def _predict(problem, params: dict, geometry, deadline=None) -> np.ndarray:
 
 
 def _jacobian(problem, params: dict, geometry, base, deadline=None) -> tuple:
-    """Names, kinds (``log``, ``linear`` shape; ``coef``) and Jacobian columns: (M, C)
-    for shape parameters, ``(channel, (M,))`` for coefficients (:func:`_information`)."""
-    names, kinds, columns = [], [], []
+    """Names, kinds (``log``, ``linear`` shape; ``coef``), the Jacobian's sources (M, C)
+    and its columns' layout (:func:`~brdffit.fitting.information.channel_information`):
+    a shape parameter's column is its source in every channel (channel -1), a
+    coefficient's is channel ``c`` of its linear parameter's source."""
+    names, kinds, sources, layout = [], [], [], []
     for p in problem.free_shape:
         lo, hi = (math.log10(p.lower), math.log10(p.upper)) if p.log_scale else (p.lower, p.upper)
         x = math.log10(params[p.name]) if p.log_scale else float(params[p.name])
@@ -285,35 +268,58 @@ def _jacobian(problem, params: dict, geometry, base, deadline=None) -> tuple:
         up, down = min(x + h, hi), max(x - h, lo)
         values = [10.0**v if p.log_scale else v for v in (up, down)]
         diff = _predict(problem, {**params, p.name: values[0]}, geometry, deadline)
-        diff = diff - _predict(problem, {**params, p.name: values[1]}, geometry, deadline)
+        diff = diff if diff.flags.writeable else diff.copy()  # written in place below
+        diff -= _predict(problem, {**params, p.name: values[1]}, geometry, deadline)
+        diff /= up - down
         names.append(p.name)
         kinds.append("log" if p.log_scale else "linear")
-        columns.append(diff / (up - down))
+        layout.append((len(sources), -1))
+        sources.append(diff)
+    design = _design(problem, params, geometry)
     for p in problem.model.linear_params:
         if p.name not in problem.fixed:
-            coefficients = _coefficient_columns(problem, params, geometry, base, p, deadline)
-            for label, column in coefficients:
-                names.append(label)
-                kinds.append("coef")
-                columns.append(column)
-    return names, kinds, columns
+            labels = _coefficient_columns(problem, params, geometry, base, p, deadline, design)
+            if labels:
+                source, labels = labels
+                for label, c in labels:
+                    names.append(label)
+                    kinds.append("coef")
+                    layout.append((len(sources), c))
+                sources.append(source)
+    return names, kinds, sources, layout
 
 
-def _coefficient_columns(problem, params, geometry, base, p, deadline):
-    """(label, column) of linear parameter ``p`` in each channel where it is inside
-    its range (at a bound, the bound decides it). One evaluation serves every
-    channel: a channel's values depend on its own linear parameters only."""
+def _design(problem, params: dict, geometry):
+    """The model's design at the fitted shape where its linear parameters are its
+    coefficients (None where they are mapped to them, or not :data:`EXACT_COEFFICIENTS`)."""
+    model, shape = problem.model, {p.name: params[p.name] for p in problem.model.shape_params}
+    exact = EXACT_COEFFICIENTS and model.to_coefficients is None
+    return model.design(geometry, shape) if exact else None
+
+
+def _coefficient_columns(problem, params, geometry, base, p, deadline, design=None):
+    """The derivatives (M, C) of the prediction by linear parameter ``p`` (each channel by
+    its own value: one evaluation serves every channel), and (label, channel) of each
+    channel where it is inside its range (at a bound, the bound decides it) or None."""
     value = np.broadcast_to(np.asarray(params[p.name], dtype=float), (problem.n_channels,))
     span = (p.upper if math.isfinite(p.upper) else 1.0) - p.lower
     inside = (value > p.lower) & (value < p.upper)  # those at a bound were set to it
     if not inside.any():
-        return
-    h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
-    shifted = value + h
-    diff = _predict(problem, {**params, p.name: _as_param(shifted)}, geometry, deadline) - base
-    for c in np.flatnonzero(inside):
-        label = p.name if problem.n_channels == 1 else f"{p.name}[{problem.data.channels[c]}]"
-        yield label, (int(c), diff[:, c] / h[c])
+        return None
+    if design is not None:  # the model is linear in it: its column is the derivative
+        column = np.asarray(design.columns[problem.model.coefficients.index(p.name)], float)
+        diff = np.broadcast_to(column if column.ndim == 2 else column[..., None], base.shape)
+    else:
+        h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
+        shifted = value + h
+        diff = _predict(problem, {**params, p.name: _as_param(shifted)}, geometry, deadline)
+        diff = diff if diff.flags.writeable else diff.copy()
+        diff -= base
+        diff /= np.where(inside, h, 1.0)  # the channels at a bound are not read
+    channels = problem.data.channels
+    labels = [(p.name if problem.n_channels == 1 else f"{p.name}[{channels[c]}]", int(c))
+              for c in np.flatnonzero(inside)]  # fmt: skip
+    return diff, labels
 
 
 def _at_their_bounds(problem, params: dict) -> dict:
@@ -346,11 +352,9 @@ def _judge(names, kinds, info, params) -> dict:
     if live.size == 0:
         return _by_parameter(out)
     unit = info[np.ix_(live, live)] / np.outer(scale[live], scale[live])
-    eigval, eigvec = np.linalg.eigh(unit)
-    null = eigval < RANK_RTOL * eigval.max()
-    for k in np.flatnonzero(null):
-        weight = eigvec[:, k] ** 2
-        involved = [live[i] for i in np.flatnonzero(weight > 0.01 * weight.max())]
+    null_sets, variance = null_and_variance(unit, RANK_RTOL)
+    for positions in null_sets:
+        involved = [live[i] for i in positions]
         for i in involved:
             others = [names[j] for j in involved if j != i]
             out.setdefault(
@@ -360,12 +364,10 @@ def _judge(names, kinds, info, params) -> dict:
                 + " (their combination leaves the fit unchanged: the Fisher information is "
                 "singular)",
             )
-    keep = ~null
-    cov = (eigvec[:, keep] / eigval[keep]) @ eigvec[:, keep].T
     for pos, i in enumerate(live):
         if names[i] in out or kinds[i] == "coef":
             continue
-        sd = math.sqrt(max(cov[pos, pos], 0.0)) / scale[i]
+        sd = math.sqrt(max(variance[pos], 0.0)) / scale[i]
         value = float(params[names[i]])
         width = math.log(10.0) * sd if kinds[i] == "log" else sd / max(abs(value), 1e-300)
         if width <= MAX_RELATIVE_WIDTH:

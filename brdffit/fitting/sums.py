@@ -27,8 +27,11 @@ from .losses import LOSSES, LossContext
 
 __all__ = ["BLOCK", "loss_sums"]
 
-#: Samples per block: a block's (BLOCK, 3) arrays of doubles take 384 KB.
+#: Samples per block of the compiled path: a block's (BLOCK, 3) arrays of doubles take
+#: 384 KB.
 BLOCK = 16_384
+#: Values per block of numpy's path (data below ``kernels.MIN_PAIRS`` samples).
+VALUES = 16_384
 
 
 @dataclass(frozen=True)
@@ -65,8 +68,9 @@ def loss_sums(pred: np.ndarray, ctx: LossContext) -> dict:
                   if isinstance(getattr(ctx, f.name), np.ndarray)
                   and getattr(ctx, f.name).shape[:1] == y.shape[:1]]  # fmt: skip
     totals = dict.fromkeys([*names, "rss"], 0.0)
-    for start in range(0, len(y), BLOCK):
-        block = slice(start, start + BLOCK)
+    rows = max(1, VALUES // y.shape[1])
+    for start in range(0, len(y), rows):
+        block = slice(start, start + rows)
         part = replace(whole, **{name: getattr(whole, name)[block] for name in per_sample})
         for name, value in _block_sums(pred[block], part, names).items():
             totals[name] += value
@@ -89,15 +93,15 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
     cos = np.ascontiguousarray(ctx.cos_i, dtype=float)
     w = None if ctx.weights is None else np.ascontiguousarray(ctx.weights, dtype=float)
     scale = 1e-3 * np.broadcast_to(ctx.y_scale, y.shape[1:]).astype(float)
-    linear = loops_sums.linear_sums(pred, y, cos, np.empty(0) if w is None else w, scale,
-                                    per_value(ctx.sigma), per_value(ctx.noise_sigma))  # fmt: skip
-    totals = dict(zip(loops_sums.NAMES, linear.tolist()))
-    totals.update(log=0.0, cbrt=0.0)
+    linear, every_w = np.zeros(len(loops_sums.NAMES)), np.empty(0) if w is None else w
+    sigma, noise = per_value(ctx.sigma), per_value(ctx.noise_sigma)
+    totals = dict(log=0.0, cbrt=0.0)
     buffers = np.empty((4, y.shape[1], BLOCK))
     for start in range(0, len(y), BLOCK):
         size = min(BLOCK, len(y) - start)
         fc, yc, f_log, y_log = buffers[:, :, :size]
-        loops_sums.project(pred, y, cos, start, fc, yc, f_log, y_log)
+        loops_sums.sums_and_project(pred, y, cos, every_w, scale, sigma, noise, start,
+                                    fc, yc, f_log, y_log, linear)  # fmt: skip
         weights = None if w is None else w[start : start + size]
         # ln(max(1 + f cos, 1e-12)) - ln(max(1 + y cos, 1e-12)) and the cube roots'
         # difference, in place (the formulas of _log_difference and _cbrt_difference)
@@ -107,6 +111,7 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
         )
         np.cbrt(fc, out=fc)
         totals["cbrt"] += _row_squares(np.subtract(fc, np.cbrt(yc, out=yc), out=fc), weights)
+    totals.update(zip(loops_sums.NAMES, linear.tolist()))
     return {name: totals[name] for name in [*names, "rss"]}
 
 
@@ -118,24 +123,45 @@ def _row_squares(d: np.ndarray, weights) -> float:
 
 
 def _block_sums(pred: np.ndarray, ctx: LossContext, names: list) -> dict:
-    resid = pred - ctx.y
+    """The sums of one block, in four arrays of its size (each op writes into one: fresh
+    temporaries of a 31-band fit's 44,600 values cost page faults, 1 us each 4 KB)."""
+    resid = np.subtract(pred, ctx.y)
     out = {"rss": _sum_of_squares(resid, None)}
-    projected = {}
+    scratch = np.empty_like(resid)
     for name in names:
         loss = LOSSES[name]
         if name == "l2" and ctx.weights is None:
             out[name] = out["rss"]
+        elif name in _IN_PLACE:
+            out[name] = _sum_of_squares(_IN_PLACE[name](resid, ctx, scratch), ctx.weights)
         elif loss.linear:
             out[name] = _sum_of_squares(loss.transform(resid, ctx), ctx.weights)
-        elif name in _PROJECTED:
-            if not projected:
-                cos = np.asarray(ctx.cos_i, dtype=float)[:, None]
-                projected.update(f=pred * cos, y=ctx.y * cos)
-            out[name] = _sum_of_squares(_PROJECTED[name](projected), ctx.weights)
-        else:
+        elif name not in _PROJECTED:
             diff = loss.transform(pred, ctx) - loss.transform(ctx.y, ctx)
             out[name] = _sum_of_squares(diff, ctx.weights)
+    projected = [name for name in names if name in _PROJECTED]
+    if projected:  # f cos and y cos, in the residual's array and the scratch one
+        cos = np.asarray(ctx.cos_i, dtype=float)[:, None]
+        p = {"f": np.multiply(pred, cos, out=resid), "y": np.multiply(ctx.y, cos, out=scratch)}
+        for name in sorted(projected, key=list(_PROJECTED).index):  # log first: cbrt overwrites
+            out[name] = _sum_of_squares(_PROJECTED[name](p), ctx.weights)
     return out
+
+
+def _cosine_in(d, ctx, out):
+    """The cosine loss's transform of the residual ``d``, written into ``out``."""
+    return np.multiply(d, np.asarray(ctx.cos_i, dtype=float)[:, None], out=out)
+
+
+def _relative_in(d, ctx, out):
+    """The relative loss's ``d / max(|y|, 1e-3 max|y|)``, written into ``out``."""
+    scale = np.maximum(np.abs(ctx.y, out=out), 1e-3 * ctx.y_scale, out=out)
+    return np.divide(d, scale, out=out)
+
+
+#: The linear losses whose transform of the residual is written into a scratch array
+#: (the same operations as their own transforms, so the same values).
+_IN_PLACE = {"cosine": _cosine_in, "relative": _relative_in}
 
 
 def _log_difference(p: dict) -> np.ndarray:
@@ -148,9 +174,9 @@ def _log_difference(p: dict) -> np.ndarray:
 
 
 def _cbrt_difference(p: dict) -> np.ndarray:
-    """``cbrt(f cos) - cbrt(y cos)``."""
-    t = np.cbrt(p["f"])
-    return np.subtract(t, np.cbrt(p["y"]), out=t)
+    """``cbrt(f cos) - cbrt(y cos)``, in ``p``'s arrays (the last use of them)."""
+    t = np.cbrt(p["f"], out=p["f"])
+    return np.subtract(t, np.cbrt(p["y"], out=p["y"]), out=t)
 
 
 #: The non-linear losses computed from ``f cos`` and ``y cos`` formed once (the tests

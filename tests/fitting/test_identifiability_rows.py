@@ -45,8 +45,10 @@ def test_the_fisher_check_evaluates_the_model_on_its_subset_only(problem, monkey
 
     monkeypatch.setattr(model_type, "evaluate_prepared", spy)
     assert identifiability.unidentified(problem, PARAMS) == {}
-    # The base point, two per shape parameter, one per linear parameter.
-    assert evaluated == [len(rows)] * (1 + 2 * 2 + 2)
+    # The base point and two per shape parameter (a linear parameter's column is the
+    # model's design at the fitted shape since issue 13's fifth stop; one more
+    # evaluation each before).
+    assert evaluated == [len(rows)] * (1 + 2 * 2)
 
 
 def test_the_subset_geometry_gives_the_values_at_those_samples(problem, monkeypatch):
