@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import kernels
+from ..kernels import normal as kernels_normal
 from .linear import Normal, normal_equations, solve_bounded, weighted_target
 
 __all__ = [
@@ -75,7 +76,6 @@ def solve_log(problem, shape, columns, offset, constraints) -> Solution | None:
     if len(arrays) != 1 or np.ndim(columns[arrays[0]]) != 1:
         return None
     from ..kernels import loss_log
-    from ..kernels import normal as kernels_normal
 
     lobe = np.ascontiguousarray(columns[arrays[0]], dtype=float)
     cos_i, ty_t, u, first, yy = _log_inputs(problem)
@@ -123,8 +123,6 @@ def first_pass(problem) -> tuple:
     ``y'Wy``, made once per problem (until :meth:`Problem.let_go`); the
     linearisation's own (M, C) arrays are not kept (50 to 75 MB on a MERL file
     besides these copies)."""
-    from ..kernels import normal as kernels_normal
-
     state = problem._prepared
     if state is None:
         w, z = linear_terms(problem)
@@ -141,8 +139,6 @@ def compiled_normal(problem, free, offset):
     """The normal equations of ``problem``'s quadratic loss in one compiled pass over
     the columns ``free``, without stacking them (:mod:`brdffit.kernels.normal`),
     where that applies (no offset, one array column, the kernels wanted); else None."""
-    from ..kernels import normal as kernels_normal
-
     if (
         offset is not None
         or not problem.loss.linear
