@@ -6,6 +6,7 @@ from conftest, so that a test module says where its helpers come from.
 
 from __future__ import annotations
 
+import math
 import zlib
 from pathlib import Path
 
@@ -173,3 +174,15 @@ def with_f32(base: float, name: str, compiled: bool = True) -> float:
     from brdffit.kernels import inputs
 
     return base + (inputs.F32_ERROR.get(name, 0.0) if compiled else 0.0)
+
+
+def pairs_at_height(z: float) -> tuple:
+    """Five pairs of L and V at height ``z`` above the horizon: opposite, equal,
+    orthogonal and two in between (N.L, N.V and N.H at their clamps when ``z`` is
+    below them; ``|L + V|`` as small as ``2 z``)."""
+    r = math.sqrt(1.0 - z * z)
+    phi_i = np.radians([0.0, 0.0, 0.0, 30.0, 0.0])
+    phi_o = np.radians([180.0, 0.0, 90.0, 250.0, 179.0])
+    wi = np.stack([r * np.cos(phi_i), r * np.sin(phi_i), np.full(5, z)], axis=1)
+    wo = np.stack([r * np.cos(phi_o), r * np.sin(phi_o), np.full(5, z)], axis=1)
+    return wi, wo

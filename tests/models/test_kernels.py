@@ -19,6 +19,7 @@ from helpers import (  # noqa: F401 (the fixture)
     NEEDS_KERNELS,
     compiled_for_every_size,
     hemisphere_pairs,
+    pairs_at_height,
     random_params,
     stable_seed,
     with_f32,
@@ -278,11 +279,7 @@ def test_float32_loops_agree_with_numpy_just_above_the_horizon(name, z):
     2.5e59 at L = V there: infinite in float32, and its value ``inf`` where numpy's is
     0.16; it now reads ``1 / (4 (N.L)(N.V))``.)"""
     model = get_model(name)
-    r = math.sqrt(1.0 - z * z)
-    phi_i = np.radians([0.0, 0.0, 0.0, 30.0, 0.0])
-    phi_o = np.radians([180.0, 0.0, 90.0, 250.0, 179.0])
-    wi = np.stack([r * np.cos(phi_i), r * np.sin(phi_i), np.full(5, z)], axis=1)
-    wo = np.stack([r * np.cos(phi_o), r * np.sin(phi_o), np.full(5, z)], axis=1)
+    wi, wo = pairs_at_height(z)
     geometry = Geometry(wi, wo)
     params = model.defaults()
     got = model.evaluate_prepared(geometry, params)

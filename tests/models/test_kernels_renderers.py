@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import NEEDS_KERNELS, hemisphere_pairs, with_f32
+from helpers import NEEDS_KERNELS, hemisphere_pairs, pairs_at_height, with_f32
 
 from brdffit import kernels
 from brdffit.data.geometry import Geometry
@@ -228,11 +228,7 @@ def test_directions_just_above_the_horizon_give_the_numpy_values(name, z):
     equal, orthogonal and in between, where N.H, N.L and N.V are clamped and ``|L +
     V|`` can be as small as ``2 z``: compiled and numpy agree, with no overflow."""
     model = get_model(name)
-    r = math.sqrt(1.0 - z * z)
-    phi_i = np.radians([0.0, 0.0, 0.0, 30.0, 0.0])
-    phi_o = np.radians([180.0, 0.0, 90.0, 250.0, 179.0])
-    wi = np.stack([r * np.cos(phi_i), r * np.sin(phi_i), np.full(5, z)], axis=1)
-    wo = np.stack([r * np.cos(phi_o), r * np.sin(phi_o), np.full(5, z)], axis=1)
+    wi, wo = pairs_at_height(z)
     params = {**model.defaults(), **({"eta": 0.3, "k": 2.0} if "conductor" in name else {})}
     compiled, reference = _both(model, Geometry(wi, wo), params)
     assert np.all(np.isfinite(reference))
