@@ -38,14 +38,20 @@ def cells_and_counts(theta_h, theta_d, scale, bins, cell, counts):
     """Write each pair's cell ``bins * min(theta_h scale, bins - 1) + min(theta_d
     scale, bins - 1)`` (each term truncated to an integer) in ``cell`` (M,) int16 and
     add the cells' counts to ``counts`` (bins^2,) int64; ``theta_h`` and ``theta_d``
-    (M,) the angles in [0, pi/2]."""
+    (M,) the angles in [0, pi/2]. A run of pairs in one cell (a MERL file's 180
+    values of ``phi_d`` in a row) is counted in a register, not in memory."""
     last = float(bins - 1)
+    current, run = 0, 0
     for i in range(theta_h.shape[0]):
         a = min(theta_h[i] * scale, last)
         b = min(theta_d[i] * scale, last)
         h = int(a) * bins + int(b)
         cell[i] = h
-        counts[h] += 1
+        if h != current:
+            counts[current] += run
+            current, run = h, 0
+        run += 1
+    counts[current] += run
 
 
 @numba.njit(cache=True)
@@ -53,38 +59,33 @@ def spread(cell, targets, step, out):
     """Per cell, the standard deviation of the targets (root of the sum over the
     channels of their variances) on the pairs ``0, step, 2 step, ...``, non-finite
     targets taken as 0, in ``out`` (cells,): 0 where fewer than two such pairs; each
-    sum formed in data order, as ``np.bincount``. ``targets`` (M, C). Those pairs
-    are copied together first: one pass over the strided rows, not one a sum."""
+    sum formed in data order, as ``np.bincount`` (every channel's in one pass: each
+    sum still takes its terms in that order). ``targets`` (M, C)."""
     cells = out.shape[0]
     m, channels = targets.shape
-    size = (m + step - 1) // step
-    c = np.empty(size, dtype=np.int64)
-    t = np.empty((channels, size))
     n = np.zeros(cells)
-    for j in range(size):
-        h = cell[j * step]
-        c[j] = h
+    total = np.zeros((cells, channels))
+    for i in range(0, m, step):
+        h = cell[i]
         n[h] += 1.0
         for k in range(channels):
-            v = targets[j * step, k]
-            t[k, j] = v if np.isfinite(v) else 0.0
-    variance = np.zeros(cells)
-    mean = np.empty(cells)
-    squares = np.empty(cells)
-    for k in range(channels):
-        mean[:] = 0.0
-        for j in range(size):
-            mean[c[j]] += t[k, j]
-        for h in range(cells):
-            mean[h] = mean[h] / max(n[h], 1.0)
-        squares[:] = 0.0
-        for j in range(size):
-            d = t[k, j] - mean[c[j]]
-            squares[c[j]] += d * d
-        for h in range(cells):
-            variance[h] += squares[h] / max(n[h] - 1.0, 1.0)
+            v = targets[i, k]
+            total[h, k] += v if np.isfinite(v) else 0.0
     for h in range(cells):
-        out[h] = np.sqrt(variance[h]) if n[h] >= 2.0 else 0.0
+        for k in range(channels):
+            total[h, k] = total[h, k] / max(n[h], 1.0)  # the means
+    squares = np.zeros((cells, channels))
+    for i in range(0, m, step):
+        h = cell[i]
+        for k in range(channels):
+            v = targets[i, k]
+            d = (v if np.isfinite(v) else 0.0) - total[h, k]
+            squares[h, k] += d * d
+    for h in range(cells):
+        variance = 0.0
+        for k in range(channels):
+            variance += squares[h, k] / max(n[h] - 1.0, 1.0)
+        out[h] = np.sqrt(variance) if n[h] >= 2.0 else 0.0
 
 
 @numba.njit(cache=True)
@@ -127,10 +128,13 @@ def draw(cell, probability, counts, start):
     at = first[:cells].copy()
     seen = np.zeros(cells, dtype=np.int64)
     rows = np.empty(pick_cell.shape[0], dtype=np.int64)
+    current, r = 0, -1  # the current run's cell and the rank in it of its last pair
     for i in range(cell.shape[0]):
         h = cell[i]
-        r = seen[h]
-        seen[h] = r + 1
+        if h != current:  # a run of pairs in one cell keeps its rank in a register
+            seen[current] = r + 1
+            current, r = h, seen[h] - 1
+        r += 1
         while at[h] < first[h + 1] and pick_rank[at[h]] == r:
             rows[at[h]] = i
             at[h] += 1
