@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import kernels
 from .problem import Problem
 
 __all__ = [
@@ -71,6 +72,8 @@ NEYMAN = 0.5
 #: The spread of the targets in each cell is estimated on every k-th pair, k the
 #: valid pairs // this (at least 1): on fewer than twice this many pairs.
 SPREAD_SAMPLES = 100_000
+#: Pairs whose angles the compiled draw forms at a time.
+ANGLE_BLOCK = 16_384
 
 
 def stratified_rows(problem: Problem, size: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -136,25 +139,63 @@ def _draw(geometry, targets, size: int, seed: int) -> tuple[np.ndarray, np.ndarr
     (Cochran 1977, sec. 8.6 and ch. 9A: every pair gets its cell's inclusion
     probability ``p_h = a_h / N_h``, at most 1; the picks are where the running sum of
     the probabilities passes a random start plus 0, 1, 2, ...): each cell gets its
-    allocation ``a_h`` within one pair, spread over the data's own order within it."""
+    allocation ``a_h`` within one pair, spread over the data's own order within it.
+    From :data:`~brdffit.kernels.MIN_PAIRS` pairs on, by the compiled loops of
+    :mod:`brdffit.kernels.loops_schedule` (the same rows and weights)."""
+    start = np.random.default_rng(seed).random()
+    if kernels.wanted(geometry.m, modules=("loops_schedule",)):
+        return _draw_compiled(geometry, targets, size, start)
     cell = _cells(geometry)
     counts = np.bincount(cell, minlength=BINS * BINS).astype(float)
-    spread = _spread(cell, targets)
+    probability = _probability(size, counts, _spread(cell, targets))
+    order = np.argsort(cell, kind="stable")  # a radix sort of small integers
+    running = np.cumsum(probability[cell[order]])
+    picks = np.searchsorted(running, start + np.arange(int(running[-1] - start) + 1))
+    picks = picks[picks < len(order)]
+    return _weighted(order[picks], probability, cell)
+
+
+def _probability(size: int, counts: np.ndarray, spread: np.ndarray) -> np.ndarray:
+    """Each cell's inclusion probability (at most 1): its allocation, half in
+    proportion to ``counts`` and half by Neyman's rule, over its pairs."""
     share = counts / counts.sum()
     neyman = counts * spread
     if neyman.sum() > 0:
         share = (1.0 - NEYMAN) * share + NEYMAN * neyman / neyman.sum()
     allocation = _allocate(size, share, counts)
-    probability = np.minimum(allocation / np.maximum(counts, 1.0), 1.0)
-    order = np.argsort(cell, kind="stable")  # a radix sort of small integers
-    running = np.cumsum(probability[cell[order]])
-    start = np.random.default_rng(seed).random()
-    picks = np.searchsorted(running, start + np.arange(int(running[-1] - start) + 1))
-    picks = picks[picks < len(order)]
-    rows = order[picks]
+    return np.minimum(allocation / np.maximum(counts, 1.0), 1.0)
+
+
+def _weighted(rows: np.ndarray, probability: np.ndarray, cell: np.ndarray) -> tuple:
+    """The picked ``rows`` (in cell order) sorted, and their weights: the inverse of
+    their probabilities, over the mean."""
     weights = 1.0 / probability[cell[rows]]
     keep = np.argsort(rows)
     return rows[keep], weights[keep] / weights.mean()
+
+
+def _draw_compiled(geometry, targets, size: int, start: float) -> tuple:
+    """:func:`_draw` by the loops of :mod:`brdffit.kernels.loops_schedule`: the cells
+    from numpy's ``arccos`` (the angles of :func:`_cells`), the spread and the walk
+    of the running sum compiled."""
+    from ..kernels import loops_schedule
+
+    scale = BINS / (0.5 * np.pi)
+    cell = np.empty(geometry.m, dtype=np.int16)
+    counts = np.zeros(BINS * BINS, dtype=np.int64)
+    theta = np.empty((2, min(ANGLE_BLOCK, geometry.m)))
+    for first in range(0, geometry.m, ANGLE_BLOCK):  # the angles in the cache
+        block = slice(first, first + ANGLE_BLOCK)
+        theta_h, theta_d = theta[:, : len(cell[block])]
+        np.arccos(geometry.cos_h[block], out=theta_h)
+        np.arccos(geometry.cos_d[block], out=theta_d)
+        loops_schedule.cells_and_counts(theta_h, theta_d, scale, BINS, cell[block], counts)
+    t = np.ascontiguousarray(targets, dtype=float).reshape(len(cell), -1)
+    spread = np.empty(BINS * BINS)
+    loops_schedule.spread(cell, t, max(1, len(cell) // SPREAD_SAMPLES), spread)
+    probability = _probability(size, counts.astype(float), spread)
+    rows, running = loops_schedule.draw(cell, probability, counts, start)
+    return _weighted(rows[: int(running - start) + 1], probability, cell)
 
 
 def subproblem(problem: Problem, rows: np.ndarray, weights=None) -> Problem:
