@@ -120,9 +120,18 @@ def _d_anisotropic(geometry: Geometry, distribution: str, alpha_u: float, alpha_
 
 
 def _finish(geometry: Geometry, lobe, g1, alpha2_i, alpha2_o, f0: float) -> np.ndarray:
-    """``lobe * G1(L) G1(V) F / (4 N.L N.V)``, in place on ``lobe`` (which holds D)."""
-    lobe *= g1(_tan2(geometry, "i"), alpha2_i)
-    lobe *= g1(_tan2(geometry, "o"), alpha2_o)
+    """``lobe * G1(L) G1(V) F / (4 N.L N.V)``, in place on ``lobe`` (which holds D).
+    ``G1`` of L and of V in one call on both stacked: the same values, and half the
+    numpy calls (Beckmann's rational ``G1`` is 28 of them: most of a small fit's
+    evaluation)."""
+    t_i, t_o = _tan2(geometry, "i"), _tan2(geometry, "o")
+    tan2 = np.empty((2, *np.broadcast_shapes(t_i.shape, np.shape(alpha2_i))))
+    tan2[0], tan2[1] = t_i, t_o
+    if alpha2_o is not alpha2_i:
+        alpha2_i = np.stack(np.broadcast_arrays(alpha2_i, alpha2_o))
+    g = g1(tan2, alpha2_i)
+    lobe *= g[0]
+    lobe *= g[1]
     lobe *= inv_4_cos(geometry)
     lobe *= schlick_fresnel(geometry, f0)
     return lobe
