@@ -120,21 +120,28 @@ def _d_anisotropic(geometry: Geometry, distribution: str, alpha_u: float, alpha_
 
 
 def _finish(geometry: Geometry, lobe, g1, alpha2_i, alpha2_o, f0: float) -> np.ndarray:
-    """``lobe * G1(L) G1(V) F / (4 N.L N.V)``, in place on ``lobe`` (which holds D).
-    ``G1`` of L and of V in one call on both stacked: the same values, and half the
-    numpy calls (Beckmann's rational ``G1`` is 28 of them: most of a small fit's
-    evaluation)."""
+    """``lobe * G1(L) G1(V) F / (4 N.L N.V)``, in place on ``lobe`` (which holds D)."""
     t_i, t_o = _tan2(geometry, "i"), _tan2(geometry, "o")
+    if g1 is smith.smith_g1:
+        g_i, g_o = _stacked_g1(g1, t_i, t_o, alpha2_i, alpha2_o)
+    else:
+        g_i, g_o = g1(t_i, alpha2_i), g1(t_o, alpha2_o)
+    lobe *= g_i
+    lobe *= g_o
+    lobe *= inv_4_cos(geometry)
+    lobe *= schlick_fresnel(geometry, f0)
+    return lobe
+
+
+def _stacked_g1(g1, t_i, t_o, alpha2_i, alpha2_o):
+    """``g1`` of L and of V in one call on both stacked: the same values, half the
+    numpy calls. For Beckmann's rational ``G1`` (28 calls, most of a small fit's
+    evaluation); GGX's few cost less than the stacking (measured)."""
     tan2 = np.empty((2, *np.broadcast_shapes(t_i.shape, np.shape(alpha2_i))))
     tan2[0], tan2[1] = t_i, t_o
     if alpha2_o is not alpha2_i:
         alpha2_i = np.stack(np.broadcast_arrays(alpha2_i, alpha2_o))
-    g = g1(tan2, alpha2_i)
-    lobe *= g[0]
-    lobe *= g[1]
-    lobe *= inv_4_cos(geometry)
-    lobe *= schlick_fresnel(geometry, f0)
-    return lobe
+    return g1(tan2, alpha2_i)
 
 
 def isotropic_lobe(geometry: Geometry, distribution: str, alpha: float, f0: float):
