@@ -51,7 +51,6 @@ from dataclasses import fields, replace
 import numpy as np
 
 from .information import channel_information, null_and_variance
-from .information import information as _information  # noqa: F401 (the plain way, tested)
 from .problem import linear_at_bounds
 
 __all__ = ["ANISOTROPY", "MAX_RELATIVE_WIDTH", "RANK_RTOL", "unidentified"]
