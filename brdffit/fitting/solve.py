@@ -41,14 +41,13 @@ class Solution:
 
 def solve_linear(problem, shape, a, offset, constraints) -> Solution:
     """Coefficients under ``constraints`` (rows of this call) and the loss."""
+    w, z, _ = problem.linearisation()
     if problem.loss.linear:
         # For quadratic losses the weighted residual sum of squares of the
         # linear solve is the loss: no prediction needs to be formed.
-        w, z, _ = problem.linearisation()
         coefs, rss = least_squares(problem, a, offset, w, z, constraints)
         loss = (float(rss.sum()) + problem.invalid_loss) / problem.norm
     else:
-        w, z, _ = problem.linearisation()
         for _ in range(NONLINEAR_PASSES):
             coefs, _ = least_squares(problem, a, offset, w, z, constraints)
             pred = _predict(a, offset, coefs, *problem.y.shape)
