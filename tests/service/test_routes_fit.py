@@ -319,17 +319,13 @@ def test_fit_takes_the_coarse_to_fine_options(tmp_path):
     )
     rng = np.random.default_rng(5)
     n = 3000
-    angles = {
-        "theta_i": rng.uniform(0.0, 80.0, n).tolist(),
-        "phi_i": [0.0] * n,
-        "theta_o": rng.uniform(0.0, 80.0, n).tolist(),
-        "phi_o": rng.uniform(0.0, 360.0, n).tolist(),
-    }
-    wi = np.array([direction(t, p) for t, p in zip(angles["theta_i"], angles["phi_i"])])
-    wo = np.array([direction(t, p) for t, p in zip(angles["theta_o"], angles["phi_o"])])
+    geometry = (rng.uniform(0.0, 80.0, n), np.zeros(n), rng.uniform(0.0, 80.0, n),
+                rng.uniform(0.0, 360.0, n))  # fmt: skip
     truth = {"kd": 0.1, "ks": 0.4, "n": 60.0}
-    values = brdffit.get_model("blinn").evaluate(wi, wo, truth) * rng.normal(1.0, 0.01, n)
-    data = angles | {"values": values.tolist()}
+    measured = brdffit.synthesize("blinn", truth, geometry=geometry, noise=0.01, seed=5)
+    data = dict(zip(("theta_i", "phi_i", "theta_o", "phi_o"),
+                    (a.tolist() for a in measured.angles())))  # fmt: skip
+    data["values"] = measured.values[:, 0].tolist()
     body = {"model": "blinn", "data": data, "loss": "l2"}
     with TestClient(create_app(settings), raise_server_exceptions=False) as client:
         _coarse_fits(client, body, truth)
