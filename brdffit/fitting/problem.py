@@ -105,12 +105,12 @@ class Problem:
         for name, value in fixed.items():
             with under_option("fixed", name):
                 value = self.model.param(name).check(value)
-            if np.ndim(value) == 1 and np.size(value) not in (1, self.n_channels):
-                raise ParameterError(
-                    f"fixed: {name} has {plural(np.size(value), 'value')} but the data have "
-                    f"{plural(self.n_channels, 'channel')}",
-                    f"fixed.{name}",
-                )
+                if np.ndim(value) == 1 and np.size(value) not in (1, self.n_channels):
+                    raise ParameterError(
+                        f"{name} has {plural(np.size(value), 'value')} but the data have "
+                        f"{plural(self.n_channels, 'channel')}",
+                        name,
+                    )
             out[name] = value
         return out
 
