@@ -78,7 +78,7 @@ def solve_log(problem, shape, columns, offset, constraints) -> Solution | None:
 
     lobe = np.ascontiguousarray(columns[arrays[0]], dtype=float)
     cos_i, ty_t, u, first, yy = _log_inputs(problem)
-    normal = kernels_normal.from_prepared(columns, first, yy, Normal)
+    normal = kernels_normal.from_prepared(columns, lobe, first, yy, Normal)
     constant = np.array([0.0 if np.ndim(col) else float(col) for col in columns])
     for i in range(NONLINEAR_PASSES):
         coefs, _ = solve_bounded(normal, problem.coef_lower, problem.coef_upper, constraints)
@@ -138,15 +138,13 @@ def compiled_normal(problem, free, offset):
     """The normal equations of ``problem``'s quadratic loss in one compiled pass over
     the columns ``free``, without stacking them (:mod:`brdffit.kernels.normal`),
     where that applies (no offset, one array column, the kernels wanted); else None."""
-    if (
-        offset is not None
-        or not problem.loss.linear
-        or not kernels.wanted(problem.geometry.m)
-        or kernels_normal.lobe_column(free) is None
-    ):
+    if offset is not None or not problem.loss.linear or not kernels.wanted(problem.geometry.m):
+        return None
+    lobe = kernels_normal.lobe_column(free)
+    if lobe is None:
         return None
     prepared, yy = first_pass(problem)
-    return kernels_normal.from_prepared(free, prepared, yy, Normal)
+    return kernels_normal.from_prepared(free, lobe, prepared, yy, Normal)
 
 
 def solve_normal(problem, shape, normal, constraints) -> Solution:

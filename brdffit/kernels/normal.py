@@ -50,15 +50,15 @@ def prepare_targets(wy) -> tuple:
     return wy_t.sum(axis=1), wy_t
 
 
-def from_prepared(columns: list, prepared: tuple, yy, normal_class):
+def from_prepared(columns: list, lobe: np.ndarray, prepared: tuple, yy, normal_class):
     """``normal_class(gram (C, K, K), rhs (C, K), yy (C,))`` from ``columns`` (K items,
-    each a float or an (M,) array, exactly one array: :func:`lobe_column`), the
-    weights' and targets' ``prepared = (S0, w, T0, wy_t)`` (:func:`prepare_weights`,
-    :func:`prepare_targets`; ``S0`` None for unit weights) and ``yy = y^T W y`` (C,).
+    each a float or an (M,) array, exactly one array: ``lobe``, contiguous, as
+    :func:`lobe_column` gives it), the weights' and targets' ``prepared = (S0, w, T0,
+    wy_t)`` (:func:`prepare_weights`, :func:`prepare_targets`; ``S0`` None for unit
+    weights) and ``yy = y^T W y`` (C,).
     With weights per channel (the ``mixed`` and ``log`` losses weigh every value by
     its own) every sum is per channel: ``S0_c = sum_m w_mc``, ``S1_c``, ``S2_c``."""
     s0, w, t0, wy_t = prepared
-    lobe = lobe_column(columns)
     if s0 is None:
         s0 = float(len(lobe))
     if w.ndim == 1:
