@@ -19,6 +19,7 @@ import warnings
 from .. import __version__
 from ..errors import BrdfFitError, MissingExtraError
 from ..fitting.losses import LOSSES
+from ..fitting.options import COARSE_ABOVE, COARSE_SAMPLES
 from . import batch, export
 from .commands import (
     AXES,
@@ -122,10 +123,13 @@ def _add_fit(sub) -> None:
         "--coarse-above",
         type=int,
         metavar="N",
-        help="above N samples the search runs coarse to fine (default 50000)",
+        help=f"above N samples the search runs coarse to fine (default {COARSE_ABOVE})",
     )
     p.add_argument(
-        "--coarse-samples", type=int, metavar="N", help="the coarse subsample (default 20000)"
+        "--coarse-samples",
+        type=int,
+        metavar="N",
+        help=f"the coarse subsample (default {COARSE_SAMPLES})",
     )
     p.add_argument("--uncertainty", action="store_true", help="also sample the posterior")
     p.add_argument(
