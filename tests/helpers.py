@@ -186,3 +186,24 @@ def pairs_at_height(z: float) -> tuple:
     wi = np.stack([r * np.cos(phi_i), r * np.sin(phi_i), np.full(5, z)], axis=1)
     wo = np.stack([r * np.cos(phi_o), r * np.sin(phi_o), np.full(5, z)], axis=1)
     return wi, wo
+
+
+def plain_information(columns: list, sqrt_w: np.ndarray) -> np.ndarray:
+    """``J^T W J`` of Jacobian columns, the plain way, column by column: (M, C) arrays
+    (shape parameters) and ``(c, (M,))`` pairs (a coefficient of channel c, zero in
+    the other channels); what brdffit.fitting.information.channel_information is held
+    to (the identifiability check formed it so before issue 13)."""
+    dense = [col * sqrt_w for col in columns if not isinstance(col, tuple)]
+    sparse = [(c, v * sqrt_w[:, c]) for c, v in (x for x in columns if isinstance(x, tuple))]
+    n_dense, size = len(dense), len(columns)
+    info = np.zeros((size, size))
+    if dense:
+        flat = np.stack([d.ravel() for d in dense], axis=1)
+        info[:n_dense, :n_dense] = flat.T @ flat
+    for j, (c, v) in enumerate(sparse, n_dense):
+        info[:n_dense, j] = info[j, :n_dense] = [float(d[:, c] @ v) for d in dense]
+    for c in {c for c, _ in sparse}:
+        idx = [j for j, (cc, _) in enumerate(sparse, n_dense) if cc == c]
+        block = np.stack([sparse[j - n_dense][1] for j in idx], axis=1)
+        info[np.ix_(idx, idx)] = block.T @ block
+    return info

@@ -13,8 +13,8 @@ shape parameters).
 ``G[k, l, c] = sum_m A_k[m, c] A_l[m, c]`` of a handful of (M, C) sources (a shape
 column, or a linear parameter's column in every channel at once): ``K (K + 1) / 2``
 reductions for K sources, instead of one column per coefficient and channel (63 for
-a 31-band fit of ``kd`` and ``ks``). :func:`information` is the plain way, from the
-columns themselves; the tests hold one to the other.
+a 31-band fit of ``kd`` and ``ks``). The tests hold it to the plain way, the product
+of the columns themselves (``helpers.plain_information``).
 
 :func:`inverse_diagonal` gives the diagonal of the inverse of the unit-diagonal
 information when that diagonal and the existence of a Cholesky factor prove that no
@@ -32,7 +32,6 @@ from .channels import dot_by_channel
 __all__ = [
     "CERTIFY_MARGIN",
     "channel_information",
-    "information",
     "inverse_diagonal",
     "null_and_variance",
 ]
@@ -78,43 +77,6 @@ def channel_information(sources: list, layout: list, sqrt_w: np.ndarray | None) 
     info = gram[source[:, None], source[None, :], slot]
     info[row_coef & col_coef & (channel[:, None] != channel[None, :])] = 0.0
     return info
-
-
-def information(columns: list, sqrt_w: np.ndarray) -> np.ndarray:
-    """``J^T W J`` of Jacobian columns: (M, C) arrays (shape parameters) and
-    ``(c, (M,))`` pairs (a coefficient of channel c, zero in the other channels): the
-    plain way, column by column, that :func:`channel_information` is held to.
-    On large data the products are einsums, not BLAS (:func:`_dot`, :func:`_gram`):
-    OpenBLAS runs them on every core, and its threads then spin, taking a core from
-    the rest of the fit (without OPENBLAS_NUM_THREADS=1 the misfit sorts after the
-    check took 0.26 s of CPU on a MERL file, not 0.07 s)."""
-    dense = [col * sqrt_w for col in columns if not isinstance(col, tuple)]
-    sparse = [(c, v * sqrt_w[:, c]) for c, v in (x for x in columns if isinstance(x, tuple))]
-    n_dense, size = len(dense), len(columns)
-    info = np.zeros((size, size))
-    if dense:
-        flat = np.stack([d.ravel() for d in dense], axis=1)
-        info[:n_dense, :n_dense] = _gram(flat)
-    for j, (c, v) in enumerate(sparse, n_dense):
-        info[:n_dense, j] = info[j, :n_dense] = [_dot(d[:, c], v) for d in dense]
-    for c in {c for c, _ in sparse}:
-        idx = [j for j, (cc, _) in enumerate(sparse, n_dense) if cc == c]
-        block = np.stack([sparse[j - n_dense][1] for j in idx], axis=1)
-        info[np.ix_(idx, idx)] = _gram(block)
-    return info
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> float:
-    """``a @ b``; by einsum above OpenBLAS's threading threshold of ``ddot`` (10,000)."""
-    return float(np.einsum("m,m->", a, b)) if a.size > 10_000 else float(a @ b)
-
-
-def _gram(a: np.ndarray) -> np.ndarray:
-    """``a.T @ a`` of a tall matrix; by einsum above 45,000 rows (a MERL check's 50,000
-    samples a channel: OpenBLAS threaded them and its threads spun), by BLAS below
-    (faster: a 31-band Cornell check's 44,600 values took 2.6 ms of wall time against
-    3.6 ms by einsum). Measured, not derived: OpenBLAS's own thresholds vary by call."""
-    return np.einsum("mi,mj->ij", a, a) if a.shape[0] > 45_000 else a.T @ a
 
 
 def inverse_diagonal(unit: np.ndarray, rtol: float) -> np.ndarray | None:

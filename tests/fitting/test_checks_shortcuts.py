@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import make_data, shared_file
+from helpers import make_data, plain_information, shared_file
 from numpy.testing import assert_allclose, assert_equal
 
 import brdffit
@@ -21,7 +21,7 @@ from brdffit.fitting.problem import Problem
 
 
 def _columns(sources, layout):
-    """The Jacobian's columns in the plain form of :func:`information.information`."""
+    """The Jacobian's columns in the plain form of ``helpers.plain_information``."""
     return [sources[k] if c < 0 else (c, sources[k][:, c]) for k, c in layout]
 
 
@@ -37,7 +37,7 @@ def test_the_channel_sums_give_the_information_of_the_columns(layout, weighted):
     m, c = 700, 3  # above the folding of the per-channel sums (2 x 128 rows)
     sources = [rng.standard_normal((m, c)) for _ in range(1 + max(k for k, _ in layout))]
     sqrt_w = rng.uniform(0.5, 2.0, (m, c)) if weighted else None
-    want = information.information(_columns(sources, layout), np.ones((m, c)) if sqrt_w is None
+    want = plain_information(_columns(sources, layout), np.ones((m, c)) if sqrt_w is None
                                    else sqrt_w)  # fmt: skip
     got = information.channel_information(sources, layout, sqrt_w)
     assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
@@ -124,7 +124,7 @@ def _plain(monkeypatch):
     monkeypatch.setattr(
         identifiability,
         "channel_information",
-        lambda s, layout, w: information.information(
+        lambda s, layout, w: plain_information(
             _columns(s, layout), np.ones_like(s[0]) if w is None else w
         ),
     )

@@ -123,10 +123,10 @@ def test_a_linear_parameter_at_zero_is_reported_with_its_sd_not_a_relative_width
 @pytest.mark.parametrize("channels", [(0, 0, 1, 2, 2), (0, 1, 2, 0, 1, 2), (1, 2)])
 @pytest.mark.parametrize("n_dense", [0, 2])
 def test_the_information_is_j_transpose_w_j(channels, n_dense):
-    """information from its compact columns equals J^T W J of the explicit Jacobian:
-    a shape column (M, C) fills every channel's residuals, a coefficient of channel c
-    only channel c's (its columns vectorised over channels since issue 13)."""
-    from brdffit.fitting.information import information
+    """The information from its compact sources equals J^T W J of the explicit
+    Jacobian: a shape column (M, C) fills every channel's residuals, a coefficient of
+    channel c only channel c's (its columns vectorised over channels since issue 13)."""
+    from brdffit.fitting.information import channel_information
 
     rng = np.random.default_rng(5)
     m, c = 40, 3
@@ -140,6 +140,13 @@ def test_the_information_is_j_transpose_w_j(channels, n_dense):
         column = np.zeros((m, c))
         column[:, ch] = v * sqrt_w[:, ch]
         jacobian[:, j] = column.ravel()
+    # each coefficient its own source, zero outside its channel
+    sources = dense + [np.zeros((m, c)) for _ in pairs]
+    for k, (ch, v) in enumerate(pairs, len(dense)):
+        sources[k][:, ch] = v
+    layout = [(k, -1) for k in range(len(dense))]
+    layout += [(k, ch) for k, (ch, _) in enumerate(pairs, len(dense))]
     np.testing.assert_allclose(
-        information(dense + pairs, sqrt_w), jacobian.T @ jacobian, rtol=1e-12, atol=1e-12
-    )
+        channel_information(sources, layout, sqrt_w), jacobian.T @ jacobian,
+        rtol=1e-12, atol=1e-12,
+    )  # fmt: skip
