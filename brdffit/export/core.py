@@ -174,6 +174,9 @@ class Export:
         What could not be carried over, and conventions worth knowing.
     native : Material
         The model (of brdffit's registry) that the exported values evaluate to.
+    extension : str
+        The document's file name ending, without the dot (``xml``, ``gltf``,
+        ``mtlx``, ``pbrt``, ``json``).
     """
 
     document: Any
@@ -207,6 +210,7 @@ class Export:
             "parameters": jsonable(dict(self.parameters)),
             "conversion_error": jsonable(dict(self.conversion_error)),
             "notes": list(self.notes),
+            "extension": self.extension,
         }
 
 

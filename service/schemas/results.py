@@ -187,6 +187,11 @@ class ExportOut(BaseModel):
     parameters: dict[str, Any] = Field(description="The target's own parameters.")
     conversion_error: ConversionErrorOut = Field(description="The export's error.")
     notes: list[str] = Field(description="What could not be carried over; conventions.")
+    extension: str | None = Field(
+        None,
+        description="The document's file name ending, without the dot (null in the exports "
+        "of jobs stored before answers gave it).",
+    )
 
 
 class FitResultOut(BaseModel):

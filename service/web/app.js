@@ -8,9 +8,6 @@ const TERMINAL = new Set(["done", "failed", "interrupted", "cancelled", "deleted
 const TOKEN_KEY = "brdffit-token";
 const POLL_MS = 700;
 const state = { models: [], targets: {}, file: null, jobs: {}, comparison: null, timer: null };
-// The file name ending of each renderer export (GET /export/targets).
-const EXPORT_ENDINGS = { mitsuba: "mitsuba.json", "mitsuba-xml": "mitsuba.xml", gltf: "gltf",
-                         openpbr: "mtlx", pbrt: "pbrt", blender: "blender.json" };
 
 function el(tag, attrs = {}, ...children) {
   const node = document.createElement(tag);
@@ -468,7 +465,8 @@ async function downloadExport(job, target, button, status) {
   try {
     const made = await exportOf(job, target);
     const text = typeof made.document === "string" ? made.document : JSON.stringify(made.document, null, 2);
-    const name = `${job.model}.${EXPORT_ENDINGS[target] || "txt"}`;
+    // The library names the ending; the target too when they differ (two are JSON).
+    const name = made.extension === target ? `${job.model}.${target}` : `${job.model}.${target}.${made.extension}`;
     save(new Blob([text], { type: "application/octet-stream" }), name);
     const e = made.conversion_error;
     status.textContent = `Saved ${name}: ${e.exact ? "an exact" : "an approximate"} ${target} material; `

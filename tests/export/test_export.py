@@ -54,6 +54,7 @@ def test_every_target_states_its_error_and_writes(target, plastic, tmp_path):
     assert 0.0 <= err["rms_log_target"] < 0.2
     assert np.shape(err["albedo_target"]) == np.shape(err["albedo_fit"]) == (3, 3)
     assert err["exact"] is False and e.notes  # ggx with Schlick f0 = 0.04 is nobody's model
+    assert (e.extension in ("json", "gltf")) == isinstance(e.document, dict)  # JSON or text
     path = e.write(tmp_path / f"material.{e.extension}")
     assert path.read_text() == e.text()
     json.dumps(e.to_dict())

@@ -36,6 +36,14 @@ def test_export_answers_the_library_export(client):
     assert body["conversion_error"]["rms_log_target"] == pytest.approx(0.0, abs=1e-12)
 
 
+@pytest.mark.parametrize("target", list(brdffit.export_targets()))
+def test_the_answer_names_the_library_file_ending(client, target):
+    """The page names a download by the answer's ending, not by a table of its own."""
+    r = client.post("/export", json={"result": GLTF, "target": target})
+    assert r.status_code == 200, r.text
+    assert r.json()["extension"] == brdffit.export(GLTF, target).extension
+
+
 def test_a_fit_answer_is_a_result_and_data_are_used(client):
     data = brdffit.synthesize("gltf_pbr", GLTF["params"], noise=0.01, seed=2)
     angles = [a.tolist() for a in data.angles()]

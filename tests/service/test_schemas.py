@@ -37,6 +37,7 @@ from brdffit_service.schemas import (
     SummaryOut,
     WeightsOut,
 )
+from brdffit_service.schemas.results import ConversionErrorOut, ExportOut
 from brdffit_service.store import JobStore, data_to_bytes
 
 #: Fields the service adds to a library answer (not in any to_dict()).
@@ -84,6 +85,15 @@ def test_a_model_has_exactly_the_fields_of_its_schema(name):
     for param in answer["params"]:
         assert set(param) == fields(ParamOut)
     ModelOut.model_validate(answer)
+
+
+@pytest.mark.parametrize("target", ["mitsuba-xml", "gltf"])
+def test_an_export_has_exactly_the_fields_of_its_schema(target):
+    answer = jsonable(brdffit.export({"model": "ward", "params": {"kd": 0.2, "ks": 0.3,
+                                      "alpha": 0.2}}, target).to_dict())  # fmt: skip
+    assert set(answer) == fields(ExportOut)
+    assert fields(ConversionErrorOut) <= set(answer["conversion_error"])  # (it allows more)
+    ExportOut.model_validate(answer)
 
 
 def test_measured_properties_have_exactly_the_fields_of_their_schema():

@@ -202,7 +202,8 @@ def test_compare_three_models_with_uncertainty(server, browser):
 
 def check_export_download(browser, article, server: str) -> None:
     """Ward's renderer exports: a labelled button per target; the glTF one, pressed
-    from the keyboard, saves a glTF asset whose material is the export's."""
+    from the keyboard, saves a glTF asset whose material is the export's; the Mitsuba
+    XML one an XML file named by the library's ending."""
     targets = httpx.get(server + "/export/targets").json()
     buttons = article.find_elements(By.CSS_SELECTOR, ".exports button")
     assert [b.get_attribute("data-target") for b in buttons] == list(targets)
@@ -223,6 +224,11 @@ def check_export_download(browser, article, server: str) -> None:
         assert 0 < pbr["roughnessFactor"] <= 1 and len(pbr["baseColorFactor"]) == 4
         status = article.find_element(By.CSS_SELECTOR, ".export-status").text
         assert status.startswith("Saved ward.gltf") and "RMS" in status, status
+        # The ending is the library's (the answer's), the target named beside it.
+        article.find_element(By.CSS_SELECTOR, '.exports button[data-target="mitsuba-xml"]').click()
+        xml = folder / "ward.mitsuba-xml.xml"
+        WebDriverWait(browser, 20).until(lambda d: xml.exists() and xml.stat().st_size > 0)
+        assert xml.read_text().lstrip().startswith("<bsdf")
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 
