@@ -36,7 +36,8 @@ from statistics import NormalDist
 
 import numpy as np
 
-from .runs import lexsort as _lexsort
+from .runs import lexsort as _lexsort  # noqa: F401 (the complex-key sort, as before)
+from .runs import orders as _stable_orders
 from .runs import runs as _runs
 from .runs import sign_codes as _sign_codes
 
@@ -92,9 +93,7 @@ def _sort_orders(data, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """
     key_h, key_d = (key[::step] for key in _keys(data))
     kind = np.int32 if key_h.size < 2**31 else np.intp
-    return tuple(
-        _lexsort(*keys).astype(kind, copy=False) for keys in ((key_h, key_d), (key_d, key_h))
-    )
+    return tuple(order.astype(kind, copy=False) for order in _stable_orders(key_h, key_d))
 
 
 def _orders(data, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
