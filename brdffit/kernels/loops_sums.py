@@ -54,28 +54,47 @@ def sums_and_project(f, y, cos, w, scale, sigma, noise, start, fc, yc, ratio, ou
             i = start + j
             ci = cos[i]
             wi = w[i] if weighted else 1.0
-            for k in range(c):
-                fv, yv = f[i, k], y[i, k]
-                d = fv - yv
-                d2 = d * d
-                rss += d2
-                l2 += wi * d2
-                dc = d * ci
-                cosine += wi * dc * dc
-                dr = d / max(abs(yv), scale[k])
-                relative += wi * dr * dr
+            if c == 3:  # RGB: the channels unrolled (a MERL file's values 12 -> 9.5 ms)
+                t0 = _value(f, y, ci, wi, scale, i, j, 0, fc, yc, ratio)
+                t1 = _value(f, y, ci, wi, scale, i, j, 1, fc, yc, ratio)
+                t2 = _value(f, y, ci, wi, scale, i, j, 2, fc, yc, ratio)
+                rss += t0[0] + t1[0] + t2[0]
+                l2 += t0[1] + t1[1] + t2[1]
+                cosine += t0[2] + t1[2] + t2[2]
+                relative += t0[3] + t1[3] + t2[3]
+            else:
+                for k in range(c):
+                    t = _value(f, y, ci, wi, scale, i, j, k, fc, yc, ratio)
+                    rss += t[0]
+                    l2 += t[1]
+                    cosine += t[2]
+                    relative += t[3]
+            for k in range(c if chi2 or mixed else 0):
+                d = f[i, k] - y[i, k]
                 if chi2:
                     ds = d / sigma[i, k]
                     chi += wi * ds * ds
                 if mixed:
                     dn = d / noise[i, k]
                     mix += wi * dn * dn
-                a, b = fv * ci, yv * ci
-                fc[j, k], yc[j, k] = a, b
-                ratio[j, k] = max(1.0 + a, 1e-12) / max(1.0 + b, 1e-12)
         out[0] += rss
         out[1] += l2
         out[2] += cosine
         out[3] += relative
         out[4] += chi
         out[5] += mix
+
+
+@numba.njit(cache=True, fastmath=True, error_model="numpy", inline="always")
+def _value(f, y, ci, wi, scale, i, j, k, fc, yc, ratio):
+    """The terms of value ``(i, k)`` of :func:`sums_and_project`'s rss, l2, cosine and
+    relative sums, with its ``f cos``, ``y cos`` and ratio written at ``(j, k)``."""
+    fv, yv = f[i, k], y[i, k]
+    d = fv - yv
+    d2 = d * d
+    dc = d * ci
+    dr = d / max(abs(yv), scale[k])
+    a, b = fv * ci, yv * ci
+    fc[j, k], yc[j, k] = a, b
+    ratio[j, k] = max(1.0 + a, 1e-12) / max(1.0 + b, 1e-12)
+    return d2, wi * d2, wi * dc * dc, wi * dr * dr
