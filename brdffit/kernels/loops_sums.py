@@ -11,9 +11,10 @@ the vectorised :func:`~brdffit.kernels.elementary.fast_log` in a loop here (and 
 ns for a cube root from it): the same pass writes, block by block, ``f cos(theta_i)``
 and ``y cos(theta_i)`` and the ratio whose logarithm is the log loss's difference,
 which numpy then takes while they are in the cache. The pass reads the samples' rows
-in memory order (a pass per channel over rows of three, and a second to lay the
-values out channel by channel, took 16.5 ms on a MERL file's values; this one 12),
-and the ratio needs one ``ln`` a value, not two (metrics 41 -> 30 ms).
+in memory order, RGB's three channels unrolled (a pass per channel over rows of
+three, and a second to lay the values out channel by channel, took 16.5 ms on a
+MERL file's values; this one 10), and the ratio needs one ``ln`` a value, not two
+(a blinn fit's metrics 41 -> 30 ms).
 Sums in another order than numpy's: they differ by rounding (the tests hold every
 sum to the numpy formula's to 1e-12 relative).
 """
