@@ -154,7 +154,7 @@ class Geometry:
 
     def _half_terms(self) -> bool:
         """Form ``|L + V|``, :attr:`cos_h` and :attr:`cos_d` at once by the compiled pass
-        of :func:`brdffit.kernels.loops.half_terms` (the same values, 25 -> 4 ms on a
+        of :func:`brdffit.kernels.loops.half_terms` (the same values, 25 -> 6 ms on a
         MERL file), where the kernels run on this geometry, their loops are already
         loaded (no numba import for a geometry alone), and none of the three is formed
         yet; whether it did."""

@@ -10,6 +10,11 @@ of ranks (:func:`order_by_ranks`; Knuth, *The Art of Computer Programming*, vol.
 2nd ed., sec. 5.2, "distribution counting"), which keep equal pairs in the
 samples' order, as a stable sort does. Ranks preserve the keys' order and
 equality exactly, so the order is the stable sort's, element for element.
+
+The signs the test orders are those of the residuals ``f - y`` of every ``k``-th
+sample: :func:`sign_codes_every` writes their codes in one pass over those rows
+(numpy formed the (M / k, C) residuals from rows ``k`` apart, an inner loop of C
+values each, and transposed their codes: 7 ms on a MERL file, 4 here).
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["order_by_ranks", "ranks"]
+__all__ = ["order_by_ranks", "ranks", "sign_codes_every"]
 
 
 @numba.njit(cache=True)
@@ -55,3 +60,17 @@ def order_by_ranks(primary, secondary, n_secondary, out):
         b = primary[i] * n_secondary + secondary[i]
         out[start[b]] = i
         start[b] += 1
+
+
+@numba.njit(cache=True)
+def sign_codes_every(f, y, step, out):
+    """The codes of :func:`brdffit.fitting.runs.sign_codes` of ``f - y`` on the rows
+    ``0, step, 2 step, ...`` of ``f`` and ``y`` (M, C), written in ``out`` (C, M / step)
+    int8: 2 above 0, 1 below (and NaN, which ``> 0`` calls negative), 0 for an exact
+    0; the same subtraction, so the same signs (no ``fastmath``: NaN compares as
+    numpy's)."""
+    for j in range(out.shape[1]):
+        i = j * step
+        for k in range(out.shape[0]):
+            d = f[i, k] - y[i, k]
+            out[k, j] = (1 if d > 0.0 else 0) + (1 if d != 0.0 else 0)

@@ -1,6 +1,7 @@
 """The misfit test's two sample orders by counting sorts (brdffit.fitting.runs.orders,
-brdffit.kernels.loops_runs) are the stable lexsorts' orders, element for element
-(issue 13); keys they cannot take go to the lexsort."""
+brdffit.kernels.loops_runs) are the stable lexsorts' orders, element for element, and
+its residuals' signs by one compiled pass are numpy's (issue 13); keys and sizes they
+do not take go the plain way."""
 
 from __future__ import annotations
 
@@ -71,3 +72,29 @@ def test_keys_the_counting_sort_does_not_take_go_to_the_lexsort(case, counted):
         b[[7, 70, 700]] = np.nan
     with kernels.use(False if case == "kernels off" else None):
         _assert_orders(a, b, counted, counting=False)
+
+
+@pytest.mark.parametrize("step", [1, 4, 7])
+def test_the_compiled_residual_signs_are_the_codes_of_the_residuals(step, monkeypatch):
+    """Every step-th sample's signs of pred - values by the compiled pass: the codes of
+    numpy's residuals (exact zeros, NaN, infinities, ties at the largest doubles)."""
+    from brdffit.kernels import loops_runs
+
+    calls, real = [], loops_runs.sign_codes_every
+    monkeypatch.setattr(loops_runs, "sign_codes_every", lambda *a: calls.append(1) or real(*a))
+    rng = np.random.default_rng(step)
+    n = kernels.MIN_PAIRS * step + 5
+    pred = rng.standard_normal((n, 3))
+    values = pred + rng.choice([-1e-300, 0.0, 1e-300, 0.5], (n, 3))
+    pred[::13, 1], values[::17, 2], pred[::19, 0] = np.nan, np.inf, np.inf
+    values[::23], pred[::23] = 1.7e308, -1.7e308  # an overflowing difference: -inf
+    with np.errstate(over="ignore"):  # the overflow, as the plain way meets it
+        want = runs.sign_codes(np.subtract(pred[::step], values[::step]))
+        got = runs.residual_signs(pred, values, step)
+        assert calls == [1] and got.dtype == np.int8 and np.array_equal(got, want)
+        assert set(np.unique(want)) == {0, 1, 2}
+        small = pred[: kernels.MIN_PAIRS * step - step], values[: kernels.MIN_PAIRS * step - step]
+        with kernels.use(False):
+            assert np.array_equal(runs.residual_signs(pred, values, step), want)
+        assert np.array_equal(runs.residual_signs(*small, step), want[:, : kernels.MIN_PAIRS - 1])
+    assert calls == [1]  # neither with the kernels off nor below MIN_PAIRS rows
