@@ -14,11 +14,13 @@ Conventions are those of MODELS.md: normal ``N = (0, 0, 1)``, tangent
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from functools import cached_property
 
 import numpy as np
 
+from .. import kernels
 from ..errors import DataError
 from ..words import plural
 
@@ -150,6 +152,23 @@ class Geometry:
     def cos_o(self) -> np.ndarray:
         return np.maximum(self.wo[:, 2], MIN_COSINE)
 
+    def _half_terms(self) -> bool:
+        """Form ``|L + V|``, :attr:`cos_h` and :attr:`cos_d` at once by the compiled pass
+        of :func:`brdffit.kernels.loops.half_terms` (the same values, 25 -> 6 ms on a
+        MERL file), where the kernels run on this geometry, their loops are already
+        loaded (no numba import for a geometry alone), and none of the three is formed
+        yet; whether it did."""
+        loops = sys.modules.get("brdffit.kernels.loops")
+        if loops is None or not kernels.wanted(self.m):
+            return False
+        if any(name in self.__dict__ for name in ("_half_norm", "half", "cos_h", "cos_d")):
+            return False
+        norm, cos_h, cos_d = (np.empty(self.m) for _ in range(3))
+        wi, wo = np.ascontiguousarray(self.wi), np.ascontiguousarray(self.wo)
+        loops.half_terms(wi, wo, MIN_COSINE, norm, cos_h, cos_d)
+        self.__dict__.update(_half_norm=norm, cos_h=cos_h, cos_d=cos_d)
+        return True
+
     @cached_property
     def _half_norm(self) -> np.ndarray:
         """``|L + V|``, its square summed over the three columns in place: no squared
@@ -186,6 +205,8 @@ class Geometry:
     @cached_property
     def cos_h(self) -> np.ndarray:
         """N.H, clamped away from zero."""
+        if self._half_terms():
+            return self.__dict__["cos_h"]
         return np.clip(self._half_component(2), MIN_COSINE, 1.0)
 
     @cached_property
@@ -193,6 +214,8 @@ class Geometry:
         """V.H (= L.H), the cosine that enters Fresnel, as |L + V| / 2: the same
         value, symmetric in L and V by construction, and without the cancellation
         of (1 + L.V) / |L + V| when L and V are nearly opposite."""
+        if self._half_terms():
+            return self.__dict__["cos_d"]
         return np.clip(0.5 * self._half_norm, 0.0, 1.0)
 
     @cached_property

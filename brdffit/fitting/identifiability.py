@@ -52,6 +52,7 @@ import numpy as np
 
 from .information import channel_information, null_and_variance
 from .problem import linear_at_bounds
+from .schedule import seeded_rows
 
 __all__ = ["ANISOTROPY", "MAX_RELATIVE_WIDTH", "RANK_RTOL", "unidentified"]
 
@@ -210,9 +211,7 @@ def _rows(problem) -> np.ndarray:
     m = problem.geometry.m
     n_cols = len(problem.free_shape) + len(problem.free_coefs) * problem.n_channels
     keep = min(max(int(MAX_ENTRIES / max(n_cols * problem.n_channels, 1)), 1000), MAX_ROWS)
-    if m <= keep:
-        return np.arange(m)
-    return np.sort(np.random.default_rng(0).choice(m, keep, replace=False))
+    return np.arange(m) if m <= keep else seeded_rows(m, keep, seed=0)
 
 
 def _context(problem, rows):

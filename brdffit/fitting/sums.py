@@ -80,7 +80,9 @@ def loss_sums(pred: np.ndarray, ctx: LossContext) -> dict:
 def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) -> dict:
     """:func:`loss_sums` with the linear losses summed by the compiled loop of
     :mod:`brdffit.kernels.loops_sums`, and the log and cbrt ones by numpy on blocks
-    of its projected values laid out channel by channel."""
+    of the values it writes: ``ln`` of the ratio ``max(1 + f cos, 1e-12) / max(1 + y
+    cos, 1e-12)`` (the difference of the two logarithms of :func:`_log_difference`,
+    to rounding) and the cube roots of ``f cos`` and ``y cos``."""
     from ..kernels import loops_sums
 
     def per_value(a):
@@ -96,19 +98,14 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
     linear, every_w = np.zeros(len(loops_sums.NAMES)), np.empty(0) if w is None else w
     sigma, noise = per_value(ctx.sigma), per_value(ctx.noise_sigma)
     totals = dict(log=0.0, cbrt=0.0)
-    buffers = np.empty((4, y.shape[1], BLOCK))
+    buffers = np.empty((3, BLOCK, y.shape[1]))
     for start in range(0, len(y), BLOCK):
         size = min(BLOCK, len(y) - start)
-        fc, yc, f_log, y_log = buffers[:, :, :size]
+        fc, yc, ratio = buffers[:, :size]
         loops_sums.sums_and_project(pred, y, cos, every_w, scale, sigma, noise, start,
-                                    fc, yc, f_log, y_log, linear)  # fmt: skip
+                                    fc, yc, ratio, linear)  # fmt: skip
         weights = None if w is None else w[start : start + size]
-        # ln(max(1 + f cos, 1e-12)) - ln(max(1 + y cos, 1e-12)) and the cube roots'
-        # difference, in place (the formulas of _log_difference and _cbrt_difference)
-        np.log(f_log, out=f_log)
-        totals["log"] += _row_squares(
-            np.subtract(f_log, np.log(y_log, out=y_log), out=f_log), weights
-        )
+        totals["log"] += _row_squares(np.log(ratio, out=ratio), weights)
         np.cbrt(fc, out=fc)
         totals["cbrt"] += _row_squares(np.subtract(fc, np.cbrt(yc, out=yc), out=fc), weights)
     totals.update(zip(loops_sums.NAMES, linear.tolist()))
@@ -116,10 +113,10 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
 
 
 def _row_squares(d: np.ndarray, weights) -> float:
-    """``sum_c sum_b w_b d_cb^2`` of ``d`` (C, B)."""
+    """``sum_b w_b sum_c d_bc^2`` of ``d`` (B, C)."""
     if weights is None:
-        return float(np.einsum("cb,cb->", d, d))
-    return float(np.einsum("cb,cb,b->", d, d, weights))
+        return float(np.einsum("bc,bc->", d, d))
+    return float(np.einsum("bc,bc,b->", d, d, weights))
 
 
 def _block_sums(pred: np.ndarray, ctx: LossContext, names: list) -> dict:

@@ -292,3 +292,28 @@ def moments_by_channel(lobe, w_t, wy_t):
             d += wy[i] * lobe[i]
         s1[k], s2[k], t1[k] = a, b, d
     return s1, s2, t1
+
+
+@numba.njit(cache=True, error_model="numpy")
+def half_terms(wi, wo, min_cosine, norm, cos_h, cos_d):
+    """``|L + V|``, ``N.H`` and ``V.H`` of every pair in one pass over ``wi`` and ``wo``
+    (M, 3), into ``norm``, ``cos_h`` and ``cos_d`` (M,): the formulas of
+    :class:`brdffit.data.geometry.Geometry` (``x^2 + y^2 + z^2`` in that order, its
+    root, ``(L_z + V_z) / max(|L + V|, 1e-300)`` clipped to ``[min_cosine, 1]``,
+    ``|L + V| / 2`` clipped to ``[0, 1]``), the same operations without fused
+    multiply-adds (no ``fastmath``): the same values. numpy took 25 ms on a MERL file
+    (the (M, 3) sum ``L + V`` formed, three strided squares); a NaN stays NaN, as in
+    numpy's ``maximum`` and ``clip``."""
+    for i in range(wi.shape[0]):
+        x, y, z = wi[i, 0] + wo[i, 0], wi[i, 1] + wo[i, 1], wi[i, 2] + wo[i, 2]
+        square = x * x
+        square += y * y
+        square += z * z
+        length = math.sqrt(square)
+        norm[i] = length
+        c = z / (1e-300 if length < 1e-300 else length)
+        c = min_cosine if c < min_cosine else c
+        cos_h[i] = 1.0 if c > 1.0 else c
+        d = 0.5 * length
+        d = 0.0 if d < 0.0 else d
+        cos_d[i] = 1.0 if d > 1.0 else d

@@ -86,3 +86,19 @@ def test_the_rows_the_check_uses():
     assert len(_rows(problem(1439, 1, 2, 31))) == 1439
     many = _rows(problem(1_096_216, 1, 2, 3))
     assert len(many) == MAX_ROWS and np.all(np.diff(many) > 0)
+
+
+def test_the_rows_of_a_size_are_drawn_once_and_are_the_seeded_draw():
+    """The subset of a MERL-sized set is kept for further fits of data of the same size
+    (every MERL file's): the seeded draw itself, formed here the plain way, read-only
+    (no caller can change what the next fit takes; brdffit.fitting.schedule.seeded_rows)."""
+    from types import SimpleNamespace
+
+    from brdffit.fitting.identifiability import MAX_ROWS, _rows
+
+    problem = SimpleNamespace(geometry=SimpleNamespace(m=1_000_003), free_shape=[None],
+                              free_coefs=[None, None], n_channels=3)  # fmt: skip
+    first, again = _rows(problem), _rows(problem)
+    plain = np.sort(np.random.default_rng(0).choice(1_000_003, MAX_ROWS, replace=False))
+    assert again is first and np.array_equal(first, plain)
+    assert not first.flags.writeable

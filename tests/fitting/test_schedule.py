@@ -268,3 +268,30 @@ def test_invalid_samples_are_left_out_of_the_subsample():
     assert sub.geometry.all_valid and abs(sub.geometry.m - 1500) <= 1
     result = fit(below, "ward", loss="l2", **SMALL_SCHEDULE)
     assert "of the 4,500 samples" in result.message and result.converged
+
+
+@pytest.mark.skipif(not kernels.available(), reason="numba is not installed: no compiled sums")
+@pytest.mark.parametrize("channels", [["r", "g", "b"], ["y"], ["a", "b", "c", "d"]])
+@pytest.mark.parametrize("extras", ["none", "weights", "sigma and noise"])
+def test_the_compiled_metrics_of_rgb_one_and_four_channels_equal_the_old_formula(channels, extras):
+    """The compiled pass unrolls three channels (RGB) and loops over others: each way,
+    with negative values (under the log loss's floor), every loss's own value."""
+    params = {"kd": [0.1] * len(channels), "ks": [0.4] * len(channels), "alpha": 0.2}
+    data = make_data("ward", params, n=5000, channels=channels, seed=9)
+    pred = np.asarray(Problem(data, "ward").predict(params))
+    y = np.asarray(data.values).reshape(pred.shape).copy()
+    y[::97] = -3.0 * np.abs(y[::97]) - 2.0  # 1 + y cos below 1e-12 at some
+    rng = np.random.default_rng(2)
+    ctx = LossContext(
+        cos_i=np.maximum(data.wi[:, 2], 0.0),
+        y=y,
+        sigma=0.01 + 0.05 * np.abs(y) if extras == "sigma and noise" else None,
+        weights=rng.uniform(0.0, 2.0, data.n) if extras == "weights" else None,
+        noise_sigma=0.02 + 0.1 * np.abs(pred) if extras == "sigma and noise" else None,
+    )
+    with kernels.use(True):
+        new = metrics_of(pred, y, ctx, 5)
+    old = _old_metrics(pred, y, ctx, 5)
+    assert sorted(new) == sorted(old)
+    for name in old:
+        assert new[name] == pytest.approx(old[name], rel=1e-12, abs=1e-300), name
