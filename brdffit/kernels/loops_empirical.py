@@ -146,7 +146,11 @@ def fournier(log_cos_h, cos_h, half_t, n, t, a, b, out):
     whose power ``2^(-1022 n)`` is below ``1e-290^n`` of the central lobe's
     ``(N.H)^n``, ``N.H >= 1e-10`` (Geometry's clamp). Tested: within 2e-12 of the
     numpy model (tests/models/test_kernels_base2.py; 1.4e-12 measured, as the loop
-    before it, from the rounding of exponents up to 1e4 times a logarithm)."""
+    before it, from the rounding of exponents up to 1e4 times a logarithm). Measured
+    beside that loop (two logarithms and three exponentials of degree 11 a pair in one
+    pass, the three powers sorted) in one process (benchmarks/bench_evaluate_old_new.py,
+    1 M pairs): 1.24-2.6x in five runs on a shared machine, median 1.76x; the logs'
+    pass 1.3 ns a pair, the powers' 1.1 ns, in the cache."""
     prefer_wide_vectors()
     if a <= 0.0:
         out[:] = b
