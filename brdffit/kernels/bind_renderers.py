@@ -202,9 +202,13 @@ class _Plastic:
         out = np.empty(geometry.m)
         if kd == 0.0:  # the diffuse column is not read: its table need not be built
             return _loop("plastic")(*self._specular(geometry, shape), ks, out)
-        *arrays, alpha2 = self._specular(geometry, shape)
         table, eta = self._table(shape), float(shape["eta"])
         z = inputs.plastic_z(geometry)
+        if inputs.unit_directions(geometry):  # four arrays: the cosines from z
+            fresnel, alpha2 = dielectric_fresnel(geometry, eta), float(shape["alpha"]) ** 2
+            terms = (*z, geometry.tan2_h, fresnel, table, eta, alpha2, kd, ks, out)
+            return _loop("plastic_unit")(*terms)
+        *arrays, alpha2 = self._specular(geometry, shape)
         return _loop("plastic_evaluate")(*z, *arrays, table, eta, alpha2, kd, ks, out)
 
 

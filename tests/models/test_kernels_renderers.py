@@ -294,3 +294,39 @@ def test_principleds_fresnel_factor_is_zero_or_a_normal_float32_number():
     single = dielectric_fresnel32(geometry, etas[1])
     assert single.dtype == np.float32
     np.testing.assert_array_equal(single, dielectric_fresnel(geometry, etas[1]).astype(np.float32))
+
+
+def test_roughplastics_unit_loop_gives_the_seven_array_loops_values(monkeypatch):
+    """For directions of unit length roughplastic's values come from four arrays (the
+    cosines from the table's z, G1 from the cosines), within rounding of those of the
+    seven-array loop that runs off unit length; each runs where it should."""
+    from brdffit.kernels import bind_renderers, inputs_renderers
+    from brdffit.kernels import loops_renderers as loops
+    from brdffit.kernels.bind_renderers import dielectric_fresnel
+    from brdffit.kernels.inputs_renderers import UNIT_ERROR
+    from brdffit.kernels.plastic_table import transmittance_table
+
+    wi, wo = hemisphere_pairs(3000, seed=43)
+    heights = [pairs_at_height(z) for z in (1e-12, 1e-40)]
+    wi = np.concatenate([wi, *(h[0] for h in heights)])
+    wo = np.concatenate([wo, *(h[1] for h in heights)])
+    geometry = Geometry(wi, wo)
+    for alpha, eta in ((0.001, 1.05), (0.1, 1.5), (1.0, 3.0)):
+        table, fresnel = transmittance_table(alpha, eta), dielectric_fresnel(geometry, eta)
+        z = inputs_renderers.plastic_z(geometry)
+        arrays = (*inputs_renderers.plastic_inputs(geometry), fresnel)
+        terms = (table, eta, alpha * alpha, 0.7, 1.3, np.empty(geometry.m))
+        seven = loops.plastic_evaluate(*z, *arrays, *terms)
+        four = loops.plastic_unit(*z, geometry.tan2_h, fresnel, *terms)
+        np.testing.assert_allclose(four, seven, rtol=1e-13, atol=0)
+    ran = []
+    real = bind_renderers._loop
+    monkeypatch.setattr(bind_renderers, "_loop", lambda name: ran.append(name) or real(name))
+    model = get_model("mitsuba_roughplastic")
+    for scale in (1.0, 1.0 + 10.0 * UNIT_ERROR):
+        with kernels.use(True):
+            model.evaluate_prepared(Geometry(wi, wo * scale), model.defaults())
+    assert [name for name in ran if name.startswith("plastic")] == [
+        "plastic_unit",
+        "plastic_evaluate",
+    ]
