@@ -139,14 +139,16 @@ def _upper_triangle(k: int) -> tuple[np.ndarray, np.ndarray]:
 def _box_states(lower: tuple, upper: tuple):
     """The 3^K active sets of the bounds (0 = at the lower bound, 1 = free, 2 = at
     the upper bound; none at an infinite one) as masks: free (S, K), the fixed
-    values (S, K), free x free (S, 1, K, K), and the identity. Made once per bounds."""
+    values (S, K), free x free (S, 1, K, K), the identity, and the identity on the
+    free x free entries (where the ridge goes). Made once per bounds."""
     k = len(lower)
     states = np.array(list(itertools.product((0, 1, 2), repeat=k)), dtype=np.int8)
     states = states[~((states == 2) & np.isinf(upper)).any(axis=1)]
     free = states == 1
     fixed_val = np.where(states == 0, lower, np.where(states == 2, upper, 0.0))
     fmask = free[:, None, :, None] & free[:, None, None, :]
-    return free, fixed_val, fmask, np.eye(k)
+    eye = np.eye(k)
+    return free, fixed_val, fmask, eye, eye * fmask
 
 
 def _objective(normal: Normal, x: np.ndarray) -> np.ndarray:
@@ -157,6 +159,13 @@ def _objective(normal: Normal, x: np.ndarray) -> np.ndarray:
         - 2 * np.einsum("...ck,ck->...c", x, normal.rhs)
         + normal.yy
     )
+
+
+def _state_objective(normal: Normal, x: np.ndarray) -> np.ndarray:
+    """:func:`_objective` of x (S, C, K), its ``G x`` by one batched matmul (an einsum
+    over the states costs twice as much); the same sums of K products."""
+    gx = np.matmul(normal.gram, x[..., None])[..., 0]
+    return np.einsum("sck,sck->sc", x, gx) - 2 * np.einsum("sck,ck->sc", x, normal.rhs) + normal.yy
 
 
 def solve_bounded(
@@ -187,8 +196,10 @@ def solve_bounded(
     rows = _per_channel(constraints, c)
     x = _unconstrained(normal)
     todo = ~_feasible(x, lower, upper, rows)  # NaN (a singular Gram) fails every bound
+    if not todo.any():  # the usual case near a good fit
+        return x, np.maximum(_objective(normal, x), 0.0)
     every = todo.all()
-    if todo.any() and k <= MAX_ENUMERATED:
+    if k <= MAX_ENUMERATED:
         x_box, rss_box = _enumerate(normal if every else _channels(normal, todo), lower, upper)
         ok = np.isfinite(rss_box)
         if rows is None and every and ok.all():
@@ -220,8 +231,12 @@ def _per_channel(constraints, c: int):
     if constraints is None:
         return None
     a, b = constraints
-    a = np.asarray(a, dtype=float)
-    return a, np.broadcast_to(np.asarray(b, dtype=float), (c, len(a)))
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if b.shape == (c, len(a)):
+        return a, b
+    out = np.empty((c, len(a)))  # np.broadcast_to's values, without its 2 us of checks
+    out[...] = b
+    return a, out
 
 
 def _subset(rows, *masks):
@@ -235,7 +250,17 @@ def _subset(rows, *masks):
 
 
 def _feasible(x, lower, upper, constraints, tol=0.0) -> np.ndarray:
-    """Which rows of x (..., K) satisfy the bounds and constraints (within tol)."""
+    """Which rows of x (..., K) satisfy the bounds and constraints (within tol).
+
+    With ``tol`` 0 the slacks are 0 where ``x`` and the rows' bounds are finite and
+    NaN (failing) where they are not: the comparisons without them and a finiteness
+    test give the same answers, at half the cost (a fit asks at every step)."""
+    if not tol:
+        ok = ((x >= lower) & (x <= upper) & (np.abs(x) < np.inf)).all(axis=-1)
+        if constraints is not None:
+            a, b = constraints
+            ok &= ((x @ a.T) <= b).all(axis=-1) & (np.abs(b) < np.inf).all(axis=-1)
+        return ok
     slack = tol * np.maximum(1.0, np.abs(x))
     ok = ((x >= lower - slack) & (x <= upper + slack)).all(axis=-1)
     if constraints is not None:
@@ -249,21 +274,21 @@ def _enumerate(normal: Normal, lower: np.ndarray, upper: np.ndarray):
     channel at once: the coefficients (C, K) and residual sums of squares (C,),
     inf for a channel without a feasible candidate."""
     c = normal.rhs.shape[0]
-    free, fixed_val, fmask, eye = _box_states(tuple(lower), tuple(upper))
-    g = normal.gram[None, :, :, :]  # (1, C, K, K)
+    free, fixed_val, fmask, eye, ridge_mask = _box_states(tuple(lower), tuple(upper))
     # Reduced system per state: G_ff x_f = b_f - G_fc x_c; solved with a masked
     # matrix (identity on the non-free rows) so that every state is one batch.
-    a = np.where(fmask, g, eye)  # (S, C, K, K)
-    b = normal.rhs[None] - np.einsum("ckl,sl->sck", normal.gram, fixed_val)
-    b = np.where(free[:, None, :], b, fixed_val[:, None, :])
+    a = np.where(fmask, normal.gram, eye)  # (S, C, K, K)
+    b = normal.rhs - np.einsum("ckl,sl->sck", normal.gram, fixed_val)
+    np.copyto(b, fixed_val[:, None, :], where=~free[:, None, :])
     # Regularise nearly singular Grams (collinear columns) by a tiny ridge scaled
     # to the Gram's size, so that solve never fails; the feasible check below
     # still picks the best exact candidate.
-    a = a + (RIDGE * _scale(normal.gram))[None, :, None, None] * (eye * fmask)
+    a += (RIDGE * _scale(normal.gram))[:, None, None] * ridge_mask
     x = _batched_solve(a, b[..., None])[..., 0]  # (S, C, K)
     tol = 1e-12 * np.maximum(1.0, np.abs(x))
     feasible = ((x >= lower - tol) & (x <= upper + tol)).all(axis=2)  # (S, C)
-    rss = np.where(feasible, _objective(normal, x), np.inf)
+    rss = _state_objective(normal, x)
+    rss[~feasible] = np.inf
     best = np.argmin(rss, axis=0)  # (C,)
     chan = np.arange(c)
     return np.clip(x[best, chan], lower, upper), np.maximum(rss[best, chan], 0.0)
