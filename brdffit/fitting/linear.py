@@ -51,7 +51,7 @@ from .channels import dot_by_channel
 from .lsi import RIDGE, solve_lsi
 from .lsi import scale as _scale
 
-__all__ = ["Normal", "normal_equations", "solve_bounded"]
+__all__ = ["Normal", "normal_equations", "offset_normal", "solve_bounded"]
 
 #: Up to this many coefficients the bounds alone are solved by enumerating the
 #: 3^K active sets (batched over channels: faster than NNLS per channel).
@@ -125,6 +125,28 @@ def normal_equations(
     wy, yy = weighted if weighted is not None else weighted_target(y, w)
     rhs = (columns.T @ wy).T  # (C, K)
     return Normal(gram, rhs, yy)
+
+
+def offset_normal(
+    columns: np.ndarray, offset: np.ndarray, w: np.ndarray | None, y: np.ndarray, weighted: tuple
+) -> Normal | None:
+    """:func:`normal_equations` of the target ``y - offset`` for an offset column (M, 1)
+    shared by the channels, from ``(W y, y^T W y)`` of :func:`weighted_target`, without
+    the (M, C) target: ``A^T W (y - o) = A^T W y - A^T W o`` and ``(y - o)^T W (y - o) =
+    y^T W y - 2 o^T W y + o^T W o``, products of the (M, K) columns and (M, 1) offset
+    with the (M, C) arrays made once per problem (the same sums regrouped; their
+    rounding is that of ``y^T W y``, as the residual sum of squares' already is). None
+    for per-channel columns, offsets or weights (then :func:`normal_equations`: with
+    (M, C) weights, as chi2's, forming the target costs less than the products)."""
+    if columns.ndim != 2 or offset.ndim != 2 or offset.shape[1] != 1 or np.ndim(w) == 2:
+        return None
+    wy, yy = weighted
+    normal = normal_equations(columns, y, w, weighted)  # the Gram and A^T W y
+    wo = offset if w is None else offset * w[:, None]
+    oo = float(wo[:, 0] @ offset[:, 0])
+    normal.rhs -= (columns.T @ wo).T
+    normal.yy = yy - 2.0 * (offset.T @ wy)[0] + oo
+    return normal
 
 
 @cache
