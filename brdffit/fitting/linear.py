@@ -123,7 +123,9 @@ def normal_equations(
         gram[:, iu[0], iu[1]] = gram_flat
         gram[:, iu[1], iu[0]] = gram_flat
     wy, yy = weighted if weighted is not None else weighted_target(y, w)
-    rhs = (columns.T @ wy).T  # (C, K)
+    # (C, K): from the side whose layout numpy's matmul takes without a copy (a
+    # column-major table's values: 13 against 31 us for 1,439 x 31)
+    rhs = wy.T @ columns if wy.flags.f_contiguous else (columns.T @ wy).T
     return Normal(gram, rhs, yy)
 
 
