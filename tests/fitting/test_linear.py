@@ -238,3 +238,27 @@ def test_per_channel_offsets_or_weights_take_the_target():
         assert offset_normal(a, offset, w, y, weighted_target(y, w)) is None
     stacked = np.repeat(a[:, :, None], 3, axis=2)  # (M, K, C) per-channel columns
     assert offset_normal(stacked, column, None, y, weighted_target(y, None)) is None
+
+
+def test_feasibility_without_tolerance_is_the_slack_formula_s():
+    """At tol 0 the check skips its slack arrays (0 where finite, NaN where not): the
+    same answers as the formula with them, at infinities and NaN too."""
+    from brdffit.fitting import linear
+
+    def plain(x, lower, upper, rows, tol):
+        slack = tol * np.maximum(1.0, np.abs(x))
+        ok = ((x >= lower - slack) & (x <= upper + slack)).all(axis=-1)
+        if rows is None:
+            return ok
+        a, b = rows
+        return ok & ((x @ a.T) <= b + tol * np.maximum(1.0, np.abs(b))).all(axis=-1)
+
+    rng = np.random.default_rng(5)
+    special = [np.inf, -np.inf, np.nan, 0.0, 1.0, -1e-300, 2.0]
+    x = rng.choice(special + list(rng.uniform(-0.5, 2.5, 20)), size=(9, 40, 2))
+    lower, upper = np.zeros(2), np.array([2.0, np.inf])
+    rows = (np.array([[1.0, 1.0], [1.0, -1.0]]), rng.choice([1.0, 3.0, np.inf, np.nan], (40, 2)))
+    with np.errstate(invalid="ignore"):
+        for constraints in (None, rows):
+            got = linear._feasible(x, lower, upper, constraints)
+            np.testing.assert_array_equal(got, plain(x, lower, upper, constraints, 0.0))
