@@ -12,6 +12,7 @@ files) are fitted with ``loss="l2"`` in both trees: today's engine's default for
 them (since issue 12 the default is the ``mixed`` noise model, another fit).
 
     python benchmarks/bench_fit_old_new.py --old /tmp/brdffit-old [--rounds 3] [--fits 3]
+        [--only lambert,ashikhmin_shirley]
 """
 
 from __future__ import annotations
@@ -28,14 +29,18 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def worker(fits: int) -> None:
-    """In a tree's process: every problem of its suite, as JSON lines."""
+def worker(fits: int, only: str = "") -> None:
+    """In a tree's process: every problem of its suite (or those whose label holds
+    one of the comma-separated words of ``only``), as JSON lines."""
     sys.path.insert(0, str(Path.cwd() / "benchmarks"))
     from _suite import cornell_cases, recovered, synthetic_cases
 
     import brdffit
 
+    words = [w for w in only.split(",") if w]
     for case in synthetic_cases() + cornell_cases():
+        if words and not any(w in case.label for w in words):
+            continue
         times, result = [], None
         options = {"loss": "l2"} if case.data.sigma is None else {}
         for _ in range(fits):
@@ -48,11 +53,11 @@ def worker(fits: int) -> None:
         print(json.dumps(row), flush=True)
 
 
-def run(tree: Path, fits: int) -> dict:
+def run(tree: Path, fits: int, only: str = "") -> dict:
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1",
            "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}  # fmt: skip
     code = f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); " \
-        f"import bench_fit_old_new as b; b.worker({fits})"  # fmt: skip
+        f"import bench_fit_old_new as b; b.worker({fits}, {only!r})"  # fmt: skip
     out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tree, check=True,
                          capture_output=True, text=True)  # fmt: skip
     rows = [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
@@ -64,14 +69,17 @@ def main(argv=None) -> int:
     parser.add_argument("--old", required=True)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--fits", type=int, default=3)
+    parser.add_argument(
+        "--only", default="", help="comma-separated words: only problems whose label holds one"
+    )
     args = parser.parse_args(argv)
     old = Path(args.old).resolve()
     with open("/proc/loadavg") as handle:
         load = " ".join(handle.read().split()[:3])
     rounds = {"old": [], "new": []}
     for _ in range(args.rounds):
-        rounds["old"].append(run(old, args.fits))
-        rounds["new"].append(run(ROOT, args.fits))
+        rounds["old"].append(run(old, args.fits, args.only))
+        rounds["new"].append(run(ROOT, args.fits, args.only))
     print(f"# Fit problems, old ({old}) and new ({ROOT}), CPU s; load at start {load}\n")
     header = (
         "| problem | old CPU s | new CPU s | new/old | evals old/new | ok old/new | loss diff |"

@@ -50,7 +50,7 @@ from dataclasses import fields, replace
 
 import numpy as np
 
-from .information import channel_information, null_and_variance
+from .information import channel_information, coefficient_diagonal, null_and_variance
 from .problem import linear_at_bounds
 from .schedule import seeded_rows
 
@@ -103,13 +103,11 @@ def unidentified(problem, params, deadline=None) -> dict:
         Parameter name -> the reason in words; empty when the data constrain every one.
     """
     out: dict[str, list] = {}
-    for name, why in _azimuth_coverage(problem).items():
-        out.setdefault(name, []).append(why)
     try:
         fisher = _fisher(problem, dict(params), deadline)
     except _Late:
         fisher = {}
-    for name, why in fisher.items():
+    for name, why in [*_azimuth_coverage(problem).items(), *fisher.items()]:
         out.setdefault(name, []).append(why)
     return {name: "; ".join(reasons) for name, reasons in out.items()}
 
@@ -193,7 +191,9 @@ def _fisher(problem, params: dict, deadline=None) -> dict:
     names, kinds, sources, layout = _jacobian(problem, params, geometry, base, deadline)
     if not layout:
         return {}
-    info = channel_information(sources, layout, None if unit else np.sqrt(w))
+    sqrt_w = None if unit else np.sqrt(w)  # the information, (P,) where it is diagonal:
+    info = coefficient_diagonal(sources, layout, sqrt_w)
+    info = channel_information(sources, layout, sqrt_w) if info is None else info
     info *= problem.geometry.m / len(rows)
     dof = max(base.size * problem.geometry.m / len(rows) - len(names), 1.0)
     d = np.subtract(target, base)
@@ -310,7 +310,8 @@ def _coefficient_columns(problem, params, geometry, base, p, deadline, design=No
     else:
         h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
         shifted = value + h
-        diff = _predict(problem, {**params, p.name: _as_param(shifted)}, geometry, deadline)
+        shifted = float(shifted[0]) if shifted.size == 1 else shifted
+        diff = _predict(problem, {**params, p.name: shifted}, geometry, deadline)
         diff = diff if diff.flags.writeable else diff.copy()
         diff -= base
         diff /= np.where(inside, h, 1.0)  # the channels at a bound are not read
@@ -335,21 +336,21 @@ def _at_their_bounds(problem, params: dict) -> dict:
     return out
 
 
-def _as_param(values: np.ndarray):
-    return float(values[0]) if values.size == 1 else values
-
-
 def _judge(names, kinds, info, params) -> dict:
-    """Null directions of the unit-diagonal information, then the shape widths."""
-    out = {}
-    scale = np.sqrt(np.diag(info))
+    """Null directions of the unit-diagonal information (its diagonal where it is
+    diagonal: ``coefficient_diagonal``), then the shape widths."""
+    out, diagonal = {}, info.ndim == 1 and np.isfinite(info).all()  # else as a matrix:
+    info = np.diag(info) if info.ndim == 1 and not diagonal else info  # the plain way's
+    scale = np.sqrt(info if diagonal else np.diag(info))
     dead = scale <= 1e-300 * max(scale.max(), 1e-300)
     for i in np.flatnonzero(dead):
         out[names[i]] = "the fitted model does not change with it at the data's directions"
     live = np.flatnonzero(~dead)
     if live.size == 0:
         return _by_parameter(out)
-    unit = info[np.ix_(live, live)] / np.outer(scale[live], scale[live])
+    # a diagonal one's entries are the plain way's (its others are 0)
+    unit = (info[live] / (scale[live] * scale[live]) if diagonal
+            else info[np.ix_(live, live)] / np.outer(scale[live], scale[live]))  # fmt: skip
     null_sets, variance = null_and_variance(unit, RANK_RTOL)
     for positions in null_sets:
         involved = [live[i] for i in positions]

@@ -32,6 +32,7 @@ from .channels import dot_by_channel
 __all__ = [
     "CERTIFY_MARGIN",
     "channel_information",
+    "coefficient_diagonal",
     "inverse_diagonal",
     "null_and_variance",
 ]
@@ -79,6 +80,19 @@ def channel_information(sources: list, layout: list, sqrt_w: np.ndarray | None) 
     return info
 
 
+def coefficient_diagonal(sources: list, layout: list, sqrt_w: np.ndarray | None):
+    """The diagonal (P,) of :func:`channel_information` where the information is
+    diagonal, else None: every column a coefficient of one source (one linear
+    parameter, no shape parameter), each in its own channel, so that no two columns
+    meet. Its entries are those of :func:`channel_information` (the same sums), without
+    the (P, P) matrix nor, in :func:`null_and_variance`, its factorisation."""
+    channels = [c for _, c in layout]
+    if len(sources) != 1 or min(channels) < 0 or len(set(channels)) < len(channels):
+        return None
+    source = sources[0] if sqrt_w is None else sources[0] * sqrt_w
+    return dot_by_channel(source, source)[channels]
+
+
 def inverse_diagonal(unit: np.ndarray, rtol: float) -> np.ndarray | None:
     """The diagonal of ``unit^-1`` when ``unit`` (symmetric, unit diagonal) is proved to
     have no eigenvalue below ``rtol`` of its largest; None when it is not.
@@ -105,7 +119,17 @@ def null_and_variance(unit: np.ndarray, rtol: float, shortcut: bool = True) -> t
     """The null directions of ``unit`` (symmetric, unit diagonal), the eigenvectors of
     eigenvalues below ``rtol`` of the largest, each as the positions with weight in it,
     and the diagonal of the pseudo-inverse without them. With ``shortcut``, by the
-    Cholesky factor where it proves there is none (:func:`inverse_diagonal`)."""
+    Cholesky factor where it proves there is none (:func:`inverse_diagonal`).
+
+    A 1-D ``unit`` is the diagonal of a diagonal matrix (:func:`coefficient_diagonal`):
+    with ``shortcut``, finite and positive entries are its eigenvalues, the proof of
+    :func:`inverse_diagonal` is their reciprocals' sum, and the variances those
+    reciprocals; anything else is answered for the (P, P) matrix."""
+    if unit.ndim == 1:
+        inverse = _diagonal_inverse(unit, rtol) if shortcut else None
+        if inverse is not None:
+            return [], inverse
+        unit = np.diag(unit)
     variance = inverse_diagonal(unit, rtol) if shortcut else None
     if variance is not None:
         return [], variance
@@ -118,3 +142,16 @@ def null_and_variance(unit: np.ndarray, rtol: float, shortcut: bool = True) -> t
     keep = ~null
     cov = (eigvec[:, keep] / eigval[keep]) @ eigvec[:, keep].T
     return sets, np.diag(cov)
+
+
+def _diagonal_inverse(diagonal: np.ndarray, rtol: float) -> np.ndarray | None:
+    """:func:`inverse_diagonal` of the diagonal matrix of ``diagonal``: its reciprocals
+    where every entry is finite and positive (the Cholesky factor exists) and their sum
+    passes the same proof; else None."""
+    if not (np.isfinite(diagonal).all() and (diagonal > 0).all()):
+        return None
+    inverse = 1.0 / diagonal
+    total = float(inverse.sum())
+    if not np.isfinite(total) or total * CERTIFY_MARGIN * rtol * len(diagonal) > 1.0:
+        return None
+    return inverse

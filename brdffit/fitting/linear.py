@@ -37,7 +37,7 @@ Three stages, each only for the channels the previous one left:
    and a call that reached the cap would count as having no solution.
    The NNLS multipliers also name the active rows, whose equality-constrained
    least squares then gives the point exactly where columns are nearly
-   collinear (:func:`_polish`).
+   collinear (:mod:`brdffit.fitting.lsi`).
 """
 
 from __future__ import annotations
@@ -48,16 +48,14 @@ from functools import cache, lru_cache
 import numpy as np
 
 from .channels import dot_by_channel
+from .lsi import RIDGE, solve_lsi
+from .lsi import scale as _scale
 
-__all__ = ["Normal", "normal_equations", "solve_bounded"]
+__all__ = ["Normal", "normal_equations", "offset_normal", "solve_bounded"]
 
 #: Up to this many coefficients the bounds alone are solved by enumerating the
 #: 3^K active sets (batched over channels: faster than NNLS per channel).
 MAX_ENUMERATED = 5
-#: Relative ridge on a Gram whose columns are collinear, so its Cholesky factor exists.
-RIDGE = 1e-12
-#: Relative tolerance on the bounds and rows of a solution.
-FEASIBLE_TOL = 1e-9
 
 try:  # numpy's own batched LAPACK solve, without np.linalg.solve's checks (8 -> 3 us)
     from numpy.linalg._umath_linalg import solve as _gufunc_solve
@@ -125,8 +123,32 @@ def normal_equations(
         gram[:, iu[0], iu[1]] = gram_flat
         gram[:, iu[1], iu[0]] = gram_flat
     wy, yy = weighted if weighted is not None else weighted_target(y, w)
-    rhs = (columns.T @ wy).T  # (C, K)
+    # (C, K): from the side whose layout numpy's matmul takes without a copy (a
+    # column-major table's values: 13 against 31 us for 1,439 x 31)
+    rhs = wy.T @ columns if wy.flags.f_contiguous else (columns.T @ wy).T
     return Normal(gram, rhs, yy)
+
+
+def offset_normal(
+    columns: np.ndarray, offset: np.ndarray, w: np.ndarray | None, y: np.ndarray, weighted: tuple
+) -> Normal | None:
+    """:func:`normal_equations` of the target ``y - offset`` for an offset column (M, 1)
+    shared by the channels, from ``(W y, y^T W y)`` of :func:`weighted_target`, without
+    the (M, C) target: ``A^T W (y - o) = A^T W y - A^T W o`` and ``(y - o)^T W (y - o) =
+    y^T W y - 2 o^T W y + o^T W o``, products of the (M, K) columns and (M, 1) offset
+    with the (M, C) arrays made once per problem (the same sums regrouped; their
+    rounding is that of ``y^T W y``, as the residual sum of squares' already is). None
+    for per-channel columns, offsets or weights (then :func:`normal_equations`: with
+    (M, C) weights, as chi2's, forming the target costs less than the products)."""
+    if columns.ndim != 2 or offset.ndim != 2 or offset.shape[1] != 1 or np.ndim(w) == 2:
+        return None
+    wy, yy = weighted
+    normal = normal_equations(columns, y, w, weighted)  # the Gram and A^T W y
+    wo = offset if w is None else offset * w[:, None]
+    oo = float(wo[:, 0] @ offset[:, 0])
+    normal.rhs -= (columns.T @ wo).T
+    normal.yy = yy - 2.0 * (offset.T @ wy)[0] + oo
+    return normal
 
 
 @cache
@@ -139,14 +161,16 @@ def _upper_triangle(k: int) -> tuple[np.ndarray, np.ndarray]:
 def _box_states(lower: tuple, upper: tuple):
     """The 3^K active sets of the bounds (0 = at the lower bound, 1 = free, 2 = at
     the upper bound; none at an infinite one) as masks: free (S, K), the fixed
-    values (S, K), free x free (S, 1, K, K), and the identity. Made once per bounds."""
+    values (S, K), free x free (S, 1, K, K), the identity, and the identity on the
+    free x free entries (where the ridge goes). Made once per bounds."""
     k = len(lower)
     states = np.array(list(itertools.product((0, 1, 2), repeat=k)), dtype=np.int8)
     states = states[~((states == 2) & np.isinf(upper)).any(axis=1)]
     free = states == 1
     fixed_val = np.where(states == 0, lower, np.where(states == 2, upper, 0.0))
     fmask = free[:, None, :, None] & free[:, None, None, :]
-    return free, fixed_val, fmask, np.eye(k)
+    eye = np.eye(k)
+    return free, fixed_val, fmask, eye, eye * fmask
 
 
 def _objective(normal: Normal, x: np.ndarray) -> np.ndarray:
@@ -157,6 +181,13 @@ def _objective(normal: Normal, x: np.ndarray) -> np.ndarray:
         - 2 * np.einsum("...ck,ck->...c", x, normal.rhs)
         + normal.yy
     )
+
+
+def _state_objective(normal: Normal, x: np.ndarray) -> np.ndarray:
+    """:func:`_objective` of x (S, C, K), its ``G x`` by one batched matmul (an einsum
+    over the states costs twice as much); the same sums of K products."""
+    gx = np.matmul(normal.gram, x[..., None])[..., 0]
+    return np.einsum("sck,sck->sc", x, gx) - 2 * np.einsum("sck,ck->sc", x, normal.rhs) + normal.yy
 
 
 def solve_bounded(
@@ -187,8 +218,10 @@ def solve_bounded(
     rows = _per_channel(constraints, c)
     x = _unconstrained(normal)
     todo = ~_feasible(x, lower, upper, rows)  # NaN (a singular Gram) fails every bound
+    if not todo.any():  # the usual case near a good fit
+        return x, np.maximum(_objective(normal, x), 0.0)
     every = todo.all()
-    if todo.any() and k <= MAX_ENUMERATED:
+    if k <= MAX_ENUMERATED:
         x_box, rss_box = _enumerate(normal if every else _channels(normal, todo), lower, upper)
         ok = np.isfinite(rss_box)
         if rows is None and every and ok.all():
@@ -199,7 +232,7 @@ def solve_bounded(
             ok[ok] = _feasible(x_box[ok], lower, upper, _subset(rows, todo, ok), 1e-12)
         todo[todo] = ~ok
     if todo.any():
-        x[todo] = _solve_lsi(_channels(normal, todo), lower, upper, _subset(rows, todo))
+        x[todo] = solve_lsi(_channels(normal, todo), lower, upper, _subset(rows, todo))
     return x, np.maximum(_objective(normal, x), 0.0)
 
 
@@ -220,8 +253,12 @@ def _per_channel(constraints, c: int):
     if constraints is None:
         return None
     a, b = constraints
-    a = np.asarray(a, dtype=float)
-    return a, np.broadcast_to(np.asarray(b, dtype=float), (c, len(a)))
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if b.shape == (c, len(a)):
+        return a, b
+    out = np.empty((c, len(a)))  # np.broadcast_to's values, without its 2 us of checks
+    out[...] = b
+    return a, out
 
 
 def _subset(rows, *masks):
@@ -235,7 +272,17 @@ def _subset(rows, *masks):
 
 
 def _feasible(x, lower, upper, constraints, tol=0.0) -> np.ndarray:
-    """Which rows of x (..., K) satisfy the bounds and constraints (within tol)."""
+    """Which rows of x (..., K) satisfy the bounds and constraints (within tol).
+
+    With ``tol`` 0 the slacks are 0 where ``x`` and the rows' bounds are finite and
+    NaN (failing) where they are not: the comparisons without them and a finiteness
+    test give the same answers, at half the cost (a fit asks at every step)."""
+    if not tol:
+        ok = ((x >= lower) & (x <= upper) & (np.abs(x) < np.inf)).all(axis=-1)
+        if constraints is not None:
+            a, b = constraints
+            ok &= ((x @ a.T) <= b).all(axis=-1) & (np.abs(b) < np.inf).all(axis=-1)
+        return ok
     slack = tol * np.maximum(1.0, np.abs(x))
     ok = ((x >= lower - slack) & (x <= upper + slack)).all(axis=-1)
     if constraints is not None:
@@ -249,125 +296,21 @@ def _enumerate(normal: Normal, lower: np.ndarray, upper: np.ndarray):
     channel at once: the coefficients (C, K) and residual sums of squares (C,),
     inf for a channel without a feasible candidate."""
     c = normal.rhs.shape[0]
-    free, fixed_val, fmask, eye = _box_states(tuple(lower), tuple(upper))
-    g = normal.gram[None, :, :, :]  # (1, C, K, K)
+    free, fixed_val, fmask, eye, ridge_mask = _box_states(tuple(lower), tuple(upper))
     # Reduced system per state: G_ff x_f = b_f - G_fc x_c; solved with a masked
     # matrix (identity on the non-free rows) so that every state is one batch.
-    a = np.where(fmask, g, eye)  # (S, C, K, K)
-    b = normal.rhs[None] - np.einsum("ckl,sl->sck", normal.gram, fixed_val)
-    b = np.where(free[:, None, :], b, fixed_val[:, None, :])
+    a = np.where(fmask, normal.gram, eye)  # (S, C, K, K)
+    b = normal.rhs - np.einsum("ckl,sl->sck", normal.gram, fixed_val)
+    np.copyto(b, fixed_val[:, None, :], where=~free[:, None, :])
     # Regularise nearly singular Grams (collinear columns) by a tiny ridge scaled
     # to the Gram's size, so that solve never fails; the feasible check below
     # still picks the best exact candidate.
-    a = a + (RIDGE * _scale(normal.gram))[None, :, None, None] * (eye * fmask)
+    a += (RIDGE * _scale(normal.gram))[:, None, None] * ridge_mask
     x = _batched_solve(a, b[..., None])[..., 0]  # (S, C, K)
     tol = 1e-12 * np.maximum(1.0, np.abs(x))
     feasible = ((x >= lower - tol) & (x <= upper + tol)).all(axis=2)  # (S, C)
-    rss = np.where(feasible, _objective(normal, x), np.inf)
+    rss = _state_objective(normal, x)
+    rss[~feasible] = np.inf
     best = np.argmin(rss, axis=0)  # (C,)
     chan = np.arange(c)
     return np.clip(x[best, chan], lower, upper), np.maximum(rss[best, chan], 0.0)
-
-
-def _scale(gram: np.ndarray) -> np.ndarray:
-    """The largest diagonal entry of each Gram (C,), at least 1e-300."""
-    return np.maximum(np.abs(np.diagonal(gram, axis1=-2, axis2=-1)).max(axis=-1), 1e-300)
-
-
-def _inequalities(lower, upper, rows, c: int) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds and rows as one system ``D x <= d``: D (R, K), d (C, R)."""
-    k = len(lower)
-    finite = np.isfinite(upper)
-    mats = [-np.eye(k), np.eye(k)[finite]]
-    limits = [np.broadcast_to(-lower, (c, k)), np.broadcast_to(upper[finite], (c, finite.sum()))]
-    if rows is not None:
-        mats.append(rows[0])
-        limits.append(rows[1])
-    return np.vstack(mats), np.concatenate(limits, axis=1)
-
-
-def _solve_lsi(normal: Normal, lower, upper, rows) -> np.ndarray:
-    """Least squares under ``D x <= d`` per channel by Lawson and Hanson's LSI ->
-    LDP -> NNLS reduction (Solving Least Squares Problems, ch. 23).
-
-    With the Cholesky factor ``G = L L^T`` and the unconstrained solution ``x0``,
-    the objective is ``|z|^2 + const`` for ``z = L^T (x - x0)``, and the rows
-    become ``-(D L^-T) z >= D x0 - d``: a least-distance problem (LDP), whose
-    solution is read off the residual of one NNLS problem (their algorithm
-    23.27). A relative ridge of ``RIDGE`` makes ``L`` exist for collinear columns.
-    """
-    c, k = normal.rhs.shape
-    mat, limits = _inequalities(lower, upper, rows, c)
-    gram = normal.gram + (RIDGE * _scale(normal.gram))[:, None, None] * np.eye(k)
-    if not (np.isfinite(gram).all() and np.isfinite(normal.rhs).all()):
-        raise np.linalg.LinAlgError("the design of the linear coefficients is not finite")
-    chol = np.linalg.cholesky(gram)
-    x0 = np.linalg.solve(gram, normal.rhs[..., None])[..., 0]
-    chol_inv = np.linalg.inv(chol)  # L^-1, so that L^-T = chol_inv^T
-    x = np.empty((c, k))
-    for ch in range(c):
-        z, active = _least_distance(-mat @ chol_inv[ch].T, mat @ x0[ch] - limits[ch])
-        x_ldp = np.clip(x0[ch] + chol_inv[ch].T @ z, lower, upper)
-        x[ch] = _polish(x_ldp, gram[ch], normal.rhs[ch], (mat, limits[ch], active))
-    return np.clip(x, lower, upper)
-
-
-def _polish(x_ldp, gram, rhs, system) -> np.ndarray:
-    """The LDP point, or the exact optimum on its active rows when that is feasible
-    and no worse.
-
-    Where columns are nearly collinear, ``L^-T`` stretches the poorly determined
-    directions and the LDP point can miss a row by 1e-5 there; the active rows
-    (the NNLS multipliers above 0) are then right, and the equality-constrained
-    least squares on them, solved in the coefficients' own space, is exact.
-    """
-    mat, limits, active = system
-    k = len(x_ldp)
-    rows = mat[active]
-    kkt = np.block([[gram, rows.T], [rows, np.zeros((len(rows), len(rows)))]])
-    sol = np.linalg.lstsq(kkt, np.concatenate([rhs, limits[active]]), rcond=None)[0]
-    candidates = [x_ldp, sol[:k]]
-    slack = [mat @ x - limits for x in candidates]
-    tol = FEASIBLE_TOL * np.maximum(1.0, np.abs(limits))
-    value = [x @ gram @ x - 2 * rhs @ x for x in candidates]
-    ok = [bool(np.isfinite(x).all() and (s <= tol).all()) for x, s in zip(candidates, slack)]
-    if not any(ok):
-        raise np.linalg.LinAlgError("no coefficients satisfy the bounds and constraints")
-    if ok[1] and (not ok[0] or value[1] <= value[0]):
-        return sol[:k]
-    return x_ldp
-
-
-def _least_distance(h: np.ndarray, viol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The shortest ``z`` with ``h z >= viol`` (LDP), by Lawson and Hanson's
-    algorithm 23.27: NNLS of ``[h^T; viol^T] u ~ e_(K+1)``; the problem is
-    infeasible when the residual ``r`` vanishes, else ``z = -r[:K] / r[K]``.
-    Returns ``z`` and which rows are active (``u > 0``).
-
-    Each row is scaled to unit length and the right side to a largest entry of
-    1 first: the set of solutions does not change, and NNLS sees numbers near 1.
-    """
-    k = h.shape[1]
-    norms = np.linalg.norm(h, axis=1)
-    null = norms <= 1e-300
-    active = np.zeros(len(h), dtype=bool)
-    if (viol[null] > 0).any():
-        raise np.linalg.LinAlgError("a constraint row without coefficients is broken")
-    h, viol = h[~null] / norms[~null, None], viol[~null] / norms[~null]
-    top = viol.max(initial=0.0)
-    if top <= 0:
-        return np.zeros(k), active  # x0 obeys every row
-    e = np.vstack([h.T, viol / top])
-    f = np.zeros(k + 1)
-    f[k] = 1.0
-    try:
-        from scipy.optimize import nnls  # on first need: scipy.optimize takes 0.2 s to import
-
-        u, _ = nnls(e, f, maxiter=10 * e.shape[1] + 50)
-    except RuntimeError as exc:  # iteration limit: report as no solution
-        raise np.linalg.LinAlgError(str(exc)) from None
-    r = e @ u - f
-    if not -r[k] > 0:
-        raise np.linalg.LinAlgError("no coefficients satisfy the bounds and constraints")
-    active[~null] = u > 0
-    return -r[:k] / r[k] * top, active

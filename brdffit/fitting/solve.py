@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import kernels
 from ..kernels import normal as kernels_normal
-from .linear import Normal, normal_equations, solve_bounded, weighted_target
+from .linear import Normal, normal_equations, offset_normal, solve_bounded, weighted_target
 
 __all__ = [
     "BAD_LOSS",
@@ -158,8 +158,12 @@ def least_squares(problem, a, offset, w, z, constraints):
     """Bounded least-squares coefficients (C, K) of ``z - offset`` on the columns ``a``
     with weights ``w``, and their weighted residual sums of squares (C,)."""
     c = z.shape[1]
-    target = z if offset is None else z - offset
     _, z_lin, weighted = problem.linearisation()
+    if offset is not None and a is not None and z is z_lin and weighted is not None:
+        normal = offset_normal(a, offset, w, z, weighted)  # no (M, C) z - offset formed
+        if normal is not None:
+            return solve_bounded(normal, problem.coef_lower, problem.coef_upper, constraints)
+    target = z if offset is None else z - offset
     reuse = weighted if (offset is None and z is z_lin) else None
     if a is None:
         _, yy = reuse if reuse is not None else weighted_target(target, w)

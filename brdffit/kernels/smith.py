@@ -94,11 +94,15 @@ def g1(a, p=P, q=Q) -> np.ndarray:
     a = np.minimum(np.asarray(a, dtype=float), A_MAX)
     x = a * (2.0 / A_MAX)
     x -= 1.0
-    n, d = np.full_like(x, q[0]), np.full_like(x, p[0])
-    for c in q[1:]:
+    n, d = np.multiply(x, q[0]), np.multiply(x, p[0])  # Horner's first step: c0 x + c1
+    if not isinstance(n, np.ndarray):  # one value: a 0-d array, written in place below
+        n, d = np.array(n), np.array(d)
+    n += q[1]
+    d += p[1]
+    for c in q[2:]:
         n *= x
         n += c
-    for c in p[1:]:
+    for c in p[2:]:
         d *= x
         d += c
     n *= a

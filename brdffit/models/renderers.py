@@ -51,36 +51,48 @@ _DISTRIBUTIONS = {
 
 # ------------------------------------------------- cached parameter-free terms
 def _tan2(geometry: Geometry, which: str) -> np.ndarray:
-    """``tan^2`` of the polar angle of L (``which = "i"``) or V (``"o"``).
+    """``tan^2`` of the polar angle of L (``which = "i"``) or V (``"o"``): a row of
+    :func:`_tan2_both`."""
+    return _tan2_both(geometry)[0 if which == "i" else 1]
+
+
+def _tan2_both(geometry: Geometry) -> np.ndarray:
+    """``tan^2`` of the polar angles of L and V, stacked (2, M) (one array for the
+    shadowing of both directions in one numpy call of each operation).
 
     From the tangential components, ``(x^2 + y^2) / z^2``, which is accurate near
     the normal, with ``z`` clamped like the geometry's cosines."""
 
     def compute():
-        w = geometry.wi if which == "i" else geometry.wo
-        cos = geometry.cos_i if which == "i" else geometry.cos_o
-        out = w[:, 0] ** 2
-        out += w[:, 1] ** 2
-        out /= cos
-        out /= cos
+        out = np.empty((2, geometry.m))
+        for row, w, cos in ((0, geometry.wi, geometry.cos_i), (1, geometry.wo, geometry.cos_o)):
+            out[row] = w[:, 0] ** 2
+            out[row] += w[:, 1] ** 2
+            out[row] /= cos
+            out[row] /= cos
         return out
 
-    return geometry.cached(f"renderers.tan2_{which}", compute)
+    return geometry.cached("renderers.tan2", compute)
 
 
 def _cos2_phi(geometry: Geometry, which: str) -> np.ndarray:
-    """``cos^2`` of the azimuth of L or V; 1/2 along the normal, where ``tan^2 = 0``
-    makes ``G1 = 1`` whatever the azimuth."""
+    """``cos^2`` of the azimuth of L or V: a row of :func:`_cos2_phi_both`."""
+    return _cos2_phi_both(geometry)[0 if which == "i" else 1]
+
+
+def _cos2_phi_both(geometry: Geometry) -> np.ndarray:
+    """``cos^2`` of the azimuths of L and V, stacked (2, M); 1/2 along the normal,
+    where ``tan^2 = 0`` makes ``G1 = 1`` whatever the azimuth."""
 
     def compute():
-        w = geometry.wi if which == "i" else geometry.wo
-        s2 = w[:, 0] ** 2 + w[:, 1] ** 2
-        out = np.full(geometry.m, 0.5)
-        ok = s2 > 1e-300
-        out[ok] = w[ok, 0] ** 2 / s2[ok]
+        out = np.full((2, geometry.m), 0.5)
+        for row, w in ((0, geometry.wi), (1, geometry.wo)):
+            s2 = w[:, 0] ** 2 + w[:, 1] ** 2
+            ok = s2 > 1e-300
+            out[row, ok] = w[ok, 0] ** 2 / s2[ok]
         return out
 
-    return geometry.cached(f"renderers.cos2_phi_{which}", compute)
+    return geometry.cached("renderers.cos2_phi", compute)
 
 
 def _tan2_axes_h(geometry: Geometry) -> tuple[np.ndarray, np.ndarray]:
@@ -120,12 +132,20 @@ def _d_anisotropic(geometry: Geometry, distribution: str, alpha_u: float, alpha_
 
 
 def _finish(geometry: Geometry, lobe, g1, alpha2_i, alpha2_o, f0: float) -> np.ndarray:
-    """``lobe * G1(L) G1(V) F / (4 N.L N.V)``, in place on ``lobe`` (which holds D)."""
-    t_i, t_o = _tan2(geometry, "i"), _tan2(geometry, "o")
-    if g1 is smith.smith_g1:
-        g_i, g_o = _stacked_g1(g1, t_i, t_o, alpha2_i, alpha2_o)
-    else:
-        g_i, g_o = g1(t_i, alpha2_i), g1(t_o, alpha2_o)
+    """``lobe * G1(L) G1(V) F / (4 N.L N.V)``, in place on ``lobe`` (which holds D).
+
+    ``alpha2_i`` and ``alpha2_o`` (the roughness^2 seen along L and V) may be one
+    (2, M) array with ``alpha2_o`` None, or one number for both: then ``G1`` of L and
+    V is one call on the stacked ``tan^2`` (:func:`_tan2_both`), the same values in
+    half the numpy calls (most of a small fit's evaluation)."""
+    if alpha2_o is None or (alpha2_o is alpha2_i and np.ndim(alpha2_i) == 0):
+        g_i, g_o = g1(_tan2_both(geometry), alpha2_i)
+    else:  # roughness arrays of walkers (W, 1)
+        t_i, t_o = _tan2(geometry, "i"), _tan2(geometry, "o")
+        if g1 is smith.smith_g1:
+            g_i, g_o = _stacked_g1(g1, t_i, t_o, alpha2_i, alpha2_o)
+        else:
+            g_i, g_o = g1(t_i, alpha2_i), g1(t_o, alpha2_o)
     lobe *= g_i
     lobe *= g_o
     lobe *= inv_4_cos(geometry)
@@ -159,6 +179,9 @@ def anisotropic_lobe(
     ``G1`` uses the roughness projected on the azimuth of each direction."""
     g1 = _DISTRIBUTIONS[distribution][2]
     lobe = _d_anisotropic(geometry, distribution, alpha_u, alpha_v)
+    if np.ndim(alpha_u) == 0 and np.ndim(alpha_v) == 0:  # both directions at once
+        alpha2 = projected_alpha2(_cos2_phi_both(geometry), alpha_u, alpha_v)
+        return _finish(geometry, lobe, g1, alpha2, None, f0)
     alpha2_i = projected_alpha2(_cos2_phi(geometry, "i"), alpha_u, alpha_v)
     alpha2_o = projected_alpha2(_cos2_phi(geometry, "o"), alpha_u, alpha_v)
     return _finish(geometry, lobe, g1, alpha2_i, alpha2_o, f0)

@@ -216,3 +216,75 @@ def test_a_read_only_evaluation_is_copied_not_written(monkeypatch):
     plain = identifiability.unidentified(problem, params)
     monkeypatch.setattr(type(problem.model), "evaluate_prepared", read_only)
     assert identifiability.unidentified(problem, params) == plain == want
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+@pytest.mark.parametrize("layout", [[(0, 0), (0, 1), (0, 2)], [(0, 2), (0, 0)], [(0, 1)]])
+def test_one_linear_parameter_s_information_is_its_diagonal(layout, weighted):
+    """Coefficients of one source in distinct channels never meet: the information is
+    the diagonal of the channel sums, the same numbers, its other entries 0."""
+    rng = np.random.default_rng(len(layout))
+    source = rng.standard_normal((700, 3))
+    sqrt_w = rng.uniform(0.5, 2.0, (700, 3)) if weighted else None
+    full = information.channel_information([source], layout, sqrt_w)
+    got = information.coefficient_diagonal([source], layout, sqrt_w)
+    assert_equal(got, np.diag(full))
+    assert np.all(full[~np.eye(len(layout), dtype=bool)] == 0)
+
+
+@pytest.mark.parametrize("layout", [
+    [(0, -1), (1, 0)], [(0, 0), (1, 1)], [(0, 0), (0, 0)], [(0, -1)],
+])  # fmt: skip
+def test_columns_that_meet_have_no_diagonal_shortcut(layout):
+    sources = [np.ones((300, 2)) for _ in range(1 + max(k for k, _ in layout))]
+    assert information.coefficient_diagonal(sources, layout, None) is None
+
+
+@pytest.mark.parametrize("diagonal", [
+    [1.0, 1.0, 1.0], [1.0 + 2e-16, 1.0 - 1e-16], [1.0, 0.0, 1.0], [1.0, -1e-300],
+    [1.0, np.inf], [1.0, np.nan], [1.0], [1e-30, 1.0],
+])  # fmt: skip
+@pytest.mark.parametrize("rtol", [identifiability.RANK_RTOL, 0.004])  # 0.004: no proof
+def test_a_diagonal_unit_gets_the_answer_of_its_matrix(diagonal, rtol):
+    diagonal = np.array(diagonal)
+    with np.errstate(invalid="ignore"):
+        try:
+            want = information.null_and_variance(np.diag(diagonal), rtol)
+        except np.linalg.LinAlgError:
+            with pytest.raises(np.linalg.LinAlgError):
+                information.null_and_variance(diagonal, rtol)
+            return
+        got = information.null_and_variance(diagonal, rtol)
+    assert len(got[0]) == len(want[0])
+    for a, b in zip(got[0], want[0]):
+        assert_equal(a, b)
+    assert_allclose(got[1], want[1], rtol=1e-15)
+
+
+def _one_linear_parameter(case: int):
+    """Fits whose only free parameter is one linear parameter per channel."""
+    rgb = brdffit.synthesize("lambert", {"kd": [0.6, 0.35, 0.2]}, noise=0.01)
+    dark = brdffit.synthesize("lambert", {"kd": [0.6, 0.0, 0.2]}, noise=0.0)  # kd[g] at 0
+    sigma = brdffit.Measurements(rgb.wi, rgb.wo, rgb.values,
+                                 sigma=0.01 * np.abs(np.asarray(rgb.values)) + 1e-4)  # fmt: skip
+    blinn = make_data("blinn", {"kd": [0.2, 0.1, 0.3], "ks": 0.5, "n": 40.0}, n=600)
+    held = {"fixed": {"ks": 0.5, "n": 40.0}}  # kd alone, over blinn's lobe as an offset
+    return [(rgb, "lambert", "l2", {}), (rgb, "lambert", "log", {}),
+            (dark, "lambert", "l2", {}), (sigma, "lambert", "chi2", {}),
+            (blinn, "blinn", "l2", held), (blinn, "blinn", "cosine", held)][case]  # fmt: skip
+
+
+@pytest.mark.parametrize("case", range(6))
+def test_one_linear_parameter_s_verdicts_are_those_of_the_plain_way(case, monkeypatch):
+    data, model, loss, options = _one_linear_parameter(case)
+    result = brdffit.fit(data, model, loss=loss, **options)
+    problem = Problem(data, model, loss=loss, fixed=options.get("fixed"))
+    params = dict(result.params)
+    calls, taken = [], information._diagonal_inverse
+    monkeypatch.setattr(information, "_diagonal_inverse",
+                        lambda *a: calls.append(1) or taken(*a))  # fmt: skip
+    got = identifiability.unidentified(problem, params)
+    assert calls  # the diagonal was taken
+    _plain(monkeypatch)
+    monkeypatch.setattr(identifiability, "coefficient_diagonal", lambda *a: None)
+    assert got == identifiability.unidentified(problem, params)

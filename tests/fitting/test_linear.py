@@ -9,7 +9,13 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear, minimize, nnls
 
-from brdffit.fitting.linear import MAX_ENUMERATED, normal_equations, solve_bounded
+from brdffit.fitting.linear import (
+    MAX_ENUMERATED,
+    normal_equations,
+    offset_normal,
+    solve_bounded,
+    weighted_target,
+)
 
 
 @pytest.mark.parametrize("k", [1, 2, 3, 4, MAX_ENUMERATED + 1])
@@ -224,3 +230,57 @@ def test_the_answer_is_deterministic():
     first = solve_bounded(normal, lower, upper, (rows, bounds))
     again = solve_bounded(normal, lower, upper, (rows, bounds))
     assert all(np.array_equal(u, v) for u, v in zip(first, again))
+
+
+@pytest.mark.parametrize("weighted", ["none", "per_sample"])
+def test_an_offset_column_gives_the_normal_equations_of_its_target(weighted):
+    """offset_normal regroups the sums of normal_equations(a, y - offset, w) without the
+    target: the same Gram, A^T W (y - o) and (y - o)^T W (y - o) to their rounding."""
+    rng = np.random.default_rng(len(weighted))
+    m, c = 700, 31  # above the folding of the per-channel sums (2 x 128 rows)
+    a, y = rng.uniform(0, 1, (m, 2)), rng.uniform(0, 1, (m, c))
+    offset = rng.uniform(0, 0.5, (m, 1))
+    w = None if weighted == "none" else rng.uniform(0.2, 3, m)
+    want = normal_equations(a, y - offset, w)
+    got = offset_normal(a, offset, w, y, weighted_target(y, w))
+    np.testing.assert_array_equal(got.gram, want.gram)
+    np.testing.assert_allclose(got.rhs, want.rhs, rtol=1e-13)
+    np.testing.assert_allclose(got.yy, want.yy, rtol=1e-13)
+    x, rss = solve_bounded(got, np.zeros(2), np.full(2, np.inf))
+    x_want, rss_want = solve_bounded(want, np.zeros(2), np.full(2, np.inf))
+    np.testing.assert_allclose(x, x_want, rtol=1e-12)
+    np.testing.assert_allclose(rss, rss_want, rtol=1e-10)
+
+
+def test_per_channel_offsets_or_weights_take_the_target():
+    rng = np.random.default_rng(3)
+    a, y = rng.uniform(0, 1, (300, 2)), rng.uniform(0, 1, (300, 3))
+    column, per_channel = rng.uniform(0, 1, (300, 1)), rng.uniform(0, 1, (300, 3))
+    for offset, w in ((per_channel, None), (column, rng.uniform(0.2, 3, (300, 3)))):
+        assert offset_normal(a, offset, w, y, weighted_target(y, w)) is None
+    stacked = np.repeat(a[:, :, None], 3, axis=2)  # (M, K, C) per-channel columns
+    assert offset_normal(stacked, column, None, y, weighted_target(y, None)) is None
+
+
+def test_feasibility_without_tolerance_is_the_slack_formula_s():
+    """At tol 0 the check skips its slack arrays (0 where finite, NaN where not): the
+    same answers as the formula with them, at infinities and NaN too."""
+    from brdffit.fitting import linear
+
+    def plain(x, lower, upper, rows, tol):
+        slack = tol * np.maximum(1.0, np.abs(x))
+        ok = ((x >= lower - slack) & (x <= upper + slack)).all(axis=-1)
+        if rows is None:
+            return ok
+        a, b = rows
+        return ok & ((x @ a.T) <= b + tol * np.maximum(1.0, np.abs(b))).all(axis=-1)
+
+    rng = np.random.default_rng(5)
+    special = [np.inf, -np.inf, np.nan, 0.0, 1.0, -1e-300, 2.0]
+    x = rng.choice(special + list(rng.uniform(-0.5, 2.5, 20)), size=(9, 40, 2))
+    lower, upper = np.zeros(2), np.array([2.0, np.inf])
+    rows = (np.array([[1.0, 1.0], [1.0, -1.0]]), rng.choice([1.0, 3.0, np.inf, np.nan], (40, 2)))
+    with np.errstate(invalid="ignore"):
+        for constraints in (None, rows):
+            got = linear._feasible(x, lower, upper, constraints)
+            np.testing.assert_array_equal(got, plain(x, lower, upper, constraints, 0.0))

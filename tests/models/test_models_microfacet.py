@@ -375,3 +375,19 @@ def test_values_stay_finite_at_extreme_parameters_and_directions():
         params = random_params(model, rng, "lower")
         params["ks"] = model.param("ks").upper
         assert np.isfinite(model.evaluate(wi, wo, params)).all(), model.name
+
+
+@pytest.mark.parametrize("distribution", ["ggx", "beckmann"])
+def test_shadowing_of_both_directions_at_once_is_each_direction_s(distribution):
+    """One roughness for every sample: G1 of L and V in one call on the stacked
+    tan^2 and projected alpha^2 (issue 13's speed); the walkers' path (roughness
+    arrays) takes each direction alone. The same operations on the same numbers:
+    the same values, bit for bit."""
+    wi, wo = hemisphere_pairs(600, seed=11)
+    geometry = Geometry(wi, wo)
+    for alpha_u, alpha_v, f0 in ((0.1, 0.3, 0.04), (0.02, 0.02, 1.0), (0.7, 0.05, 0.5)):
+        stacked = renderers.anisotropic_lobe(geometry, distribution, alpha_u, alpha_v, f0)
+        alone = renderers.anisotropic_lobe(
+            geometry, distribution, np.array([[alpha_u]]), np.array([[alpha_v]]), f0
+        )
+        np.testing.assert_array_equal(stacked, alone[0])
