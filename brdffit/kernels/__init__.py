@@ -74,7 +74,7 @@ def _loaded(module: str) -> bool:
     loaded = _state.setdefault("loaded", {})
     if module not in loaded:
         try:
-            importlib.import_module(f".{module}", __name__)
+            _lighten(importlib.import_module(f".{module}", __name__))
         except Exception as exc:  # ImportError, or numba's own errors on import
             warnings.warn(
                 f"brdffit's compiled kernels are off: importing them failed ({exc}); "
@@ -86,6 +86,19 @@ def _loaded(module: str) -> bool:
         else:
             loaded[module] = True
     return loaded[module]
+
+
+def _lighten(module) -> None:
+    """Let ``module``'s cached loops load without numba's registries
+    (:mod:`brdffit.kernels._cached`), and those of the kernel modules it imported."""
+    import sys
+
+    from ._cached import lighten
+
+    for name in [module.__name__, *(n for n in sys.modules if n.startswith(f"{__name__}."))]:
+        if name not in _state.setdefault("lightened", set()):
+            _state["lightened"].add(name)
+            lighten(sys.modules[name])
 
 
 @contextlib.contextmanager

@@ -1,0 +1,81 @@
+"""Loading the compiled loops from numba's disk cache without numba's registries.
+
+A first compiled fit in a process paid about 0.45 s of CPU before its loops ran
+(``benchmarks/README.md``, "The first compiled fit in a process"): numba's import
+(0.15 s), then, on the first load of a cached loop, numba's
+``FunctionCache.load_overload``, which refreshes the CPU target's typing and
+lowering registries before it reads the cached machine code: it imports some
+seventy modules of numba (its typed containers, random generators, polynomials,
+datetimes, cffi and pycparser) and, through ``numba.np.arraymath``'s check for a
+BLAS, ``scipy.linalg`` (0.15-0.25 s, nothing else in a fit imports scipy), and
+installs every registry's templates: 0.3-0.4 s of CPU in all. The registries serve
+typing and lowering, i.e. compilation; a loop loaded from the cache is not
+compiled: its machine code is read (``CompileResult._rebuild``: the object code
+into numba's JIT, the entry point made callable), and it needs only what that code
+links against: numba's C helpers (installed when the target context is made) and
+numba's reference-counting runtime (NRT, whose ``initialize`` compiles its
+functions once, 0.03 s). :class:`LightCache` loads the loops that way: it
+initialises the NRT and reads the cache, where numba's cache refreshes the whole
+context first. The machine code, and so every value, is the same (the tests
+compare a fit loaded both ways bit for bit). A loop that is not in the cache (a
+fresh install, an edited module) is compiled by numba as before, which refreshes
+the registries itself (``CompilerBase``); so does any other numba code in the
+process.
+
+:func:`lighten` gives the dispatchers of a loop module this cache; numba's own
+cache stays where the numba internals it relies on are missing (another numba
+version), so the loops then load as before, only slower.
+"""
+
+from __future__ import annotations
+
+from numba.core import caching
+from numba.core.dispatcher import Dispatcher
+
+__all__ = ["LightCache", "lighten"]
+
+#: What :class:`LightCache` relies on in numba (0.59 to 0.68 have them).
+_NEEDED = ("_load_overload", "_guard_against_spurious_io_errors", "load_overload")
+
+
+def _runtime():
+    """numba's reference-counting runtime, or None where it is not where 0.68 has it."""
+    try:
+        from numba.core.runtime import rtsys
+    except ImportError:
+        return None
+    return rtsys if callable(getattr(rtsys, "initialize", None)) else None
+
+
+_RTSYS = _runtime()
+_USABLE = _RTSYS is not None and all(hasattr(caching.FunctionCache, n) for n in _NEEDED)
+
+
+class LightCache(caching.FunctionCache):
+    """numba's cache of a function's machine code, loaded without the registries."""
+
+    def load_overload(self, sig, target_context):
+        """The cached compile result of ``sig``, or None (numba then compiles).
+
+        numba's own method refreshes ``target_context`` first; here only the runtime
+        the machine code links against is initialised (see the module's doc)."""
+        _RTSYS.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+        return None  # the guard swallowed an I/O error on Windows, as numba's own
+
+
+def lighten(module) -> int:
+    """Give each dispatcher of ``module`` that caches on disk :class:`LightCache`
+    (once; its cache's state is kept: only the class of the cache object changes).
+    Returns how many dispatchers have it."""
+    if not _USABLE:
+        return 0
+    count = 0
+    for value in vars(module).values():
+        if isinstance(value, Dispatcher):
+            cache = getattr(value, "_cache", None)
+            if type(cache) is caching.FunctionCache:
+                cache.__class__ = LightCache  # the same object: a subclass, no new state
+            count += isinstance(cache, LightCache)
+    return count
