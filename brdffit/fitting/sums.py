@@ -96,10 +96,11 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
     linear, every_w = np.zeros(len(loops_sums.NAMES)), np.empty(0) if w is None else w
     sigma, noise = per_value(ctx.sigma), per_value(ctx.noise_sigma)
     totals = dict(log=0.0, cbrt=0.0)
-    buffers = np.empty((4, y.shape[1], BLOCK))
+    buffers = np.empty(4 * y.shape[1] * BLOCK)
     for start in range(0, len(y), BLOCK):
         size = min(BLOCK, len(y) - start)
-        fc, yc, f_log, y_log = buffers[:, :, :size]
+        # contiguous for the last, shorter block too: one compiled signature to load
+        fc, yc, f_log, y_log = buffers[: buffers.size // BLOCK * size].reshape(4, -1, size)
         loops_sums.sums_and_project(pred, y, cos, every_w, scale, sigma, noise, start,
                                     fc, yc, f_log, y_log, linear)  # fmt: skip
         weights = None if w is None else w[start : start + size]
