@@ -99,7 +99,7 @@ def test_a_fit_loads_its_cached_loops_without_numbas_registries(light_and_numbas
     assert light["heavy"] == []
     # the control: numba's own load refreshes the registries (scipy.linalg with them)
     assert {cache for *_, cache in numbas["loaded"].values()} == {"FunctionCache"}
-    assert numbas["heavy"] == ["numba.np.arraymath", "numba.typed.typeddict", "scipy.linalg"]
+    assert "numba.np.arraymath" in numbas["heavy"]
 
 
 def test_the_fit_is_the_same_bit_for_bit_loaded_either_way(light_and_numbas):
