@@ -2,28 +2,37 @@
 
 A first compiled fit in a process paid about 0.45 s of CPU before its loops ran
 (``benchmarks/README.md``, "The first compiled fit in a process"): numba's import
-(0.15 s), then, on the first load of a cached loop, numba's
+(0.13 s), then, on the first load of a cached loop, numba's
 ``FunctionCache.load_overload``, which refreshes the CPU target's typing and
 lowering registries before it reads the cached machine code: it imports some
 seventy modules of numba (its typed containers, random generators, polynomials,
 datetimes, cffi and pycparser) and, through ``numba.np.arraymath``'s check for a
-BLAS, ``scipy.linalg`` (0.15-0.25 s, nothing else in a fit imports scipy), and
+BLAS, ``scipy.linalg`` (0.15-0.25 s; nothing else in a fit imports it), and
 installs every registry's templates: 0.3-0.4 s of CPU in all. The registries serve
-typing and lowering, i.e. compilation; a loop loaded from the cache is not
+typing and lowering, i.e. compilation. A loop loaded from the cache is not
 compiled: its machine code is read (``CompileResult._rebuild``: the object code
 into numba's JIT, the entry point made callable), and it needs only what that code
 links against: numba's C helpers (installed when the target context is made) and
 numba's reference-counting runtime (NRT, whose ``initialize`` compiles its
-functions once, 0.03 s). :class:`LightCache` loads the loops that way: it
+functions once, 0.02 s). :class:`LightCache` loads the loops that way: it
 initialises the NRT and reads the cache, where numba's cache refreshes the whole
-context first. The machine code, and so every value, is the same (the tests
-compare a fit loaded both ways bit for bit). A loop that is not in the cache (a
-fresh install, an edited module) is compiled by numba as before, which refreshes
-the registries itself (``CompilerBase``); so does any other numba code in the
-process.
+context first.
 
-:func:`lighten` gives the dispatchers of a loop module this cache; numba's own
-cache stays where the numba internals it relies on are missing (another numba
+Before that, a dispatcher's first call ran numba's ``entrypoints.init_all``, which
+reads the metadata of every installed distribution for numba extensions (0.02 s
+with 160 distributions, more in larger environments). Extensions, too, serve
+typing and lowering, and numba's refresh before a compilation initialises them
+(``CPUContext.load_additional_registries``), so the loops' dispatchers skip that
+call.
+
+The machine code, and so every value, is the same (the tests compare a fit loaded
+both ways bit for bit). A loop that is not in the cache (a fresh install, an
+edited module) is compiled by numba as before, which refreshes the registries and
+initialises the extensions itself (``CompilerBase``); so does any other numba code
+in the process.
+
+:func:`lighten` gives the dispatchers of a loop module both; numba's own cache
+stays where the numba internals it relies on are missing (another numba
 version), so the loops then load as before, only slower.
 """
 
@@ -65,10 +74,16 @@ class LightCache(caching.FunctionCache):
         return None  # the guard swallowed an I/O error on Windows, as numba's own
 
 
+def _no_extensions() -> None:
+    """A dispatcher's compilation-chain hook that leaves numba's extensions to the
+    refresh before a compilation (see the module's doc)."""
+
+
 def lighten(module) -> int:
     """Give each dispatcher of ``module`` that caches on disk :class:`LightCache`
-    (once; its cache's state is kept: only the class of the cache object changes).
-    Returns how many dispatchers have it."""
+    (once; its cache's state is kept: only the class of the cache object changes)
+    and a first call without numba's scan for extensions. Returns how many
+    dispatchers have them."""
     if not _USABLE:
         return 0
     count = 0
@@ -77,5 +92,7 @@ def lighten(module) -> int:
             cache = getattr(value, "_cache", None)
             if type(cache) is caching.FunctionCache:
                 cache.__class__ = LightCache  # the same object: a subclass, no new state
+                if hasattr(value, "_compilation_chain_init_hook"):
+                    value._compilation_chain_init_hook = _no_extensions
             count += isinstance(cache, LightCache)
     return count
