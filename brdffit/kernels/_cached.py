@@ -82,17 +82,22 @@ def _no_extensions() -> None:
 def lighten(module) -> int:
     """Give each dispatcher of ``module`` that caches on disk :class:`LightCache`
     (once; its cache's state is kept: only the class of the cache object changes)
-    and a first call without numba's scan for extensions. Returns how many
-    dispatchers have them."""
+    and a first call without numba's scan for extensions: the module's dispatchers
+    and those its functions wrap (``__wrapped__``). Returns how many have them."""
     if not _USABLE:
         return 0
-    count = 0
+    found = {}
     for value in vars(module).values():
-        if isinstance(value, Dispatcher):
-            cache = getattr(value, "_cache", None)
-            if type(cache) is caching.FunctionCache:
-                cache.__class__ = LightCache  # the same object: a subclass, no new state
-                if hasattr(value, "_compilation_chain_init_hook"):
-                    value._compilation_chain_init_hook = _no_extensions
-            count += isinstance(cache, LightCache)
+        # a dispatcher, or a function wrapping one (loops_microfacet.wide)
+        for candidate in (value, getattr(value, "__wrapped__", None)):
+            if isinstance(candidate, Dispatcher):
+                found[id(candidate)] = candidate
+    count = 0
+    for dispatcher in found.values():
+        cache = getattr(dispatcher, "_cache", None)
+        if type(cache) is caching.FunctionCache:
+            cache.__class__ = LightCache  # the same object: a subclass, no new state
+            if hasattr(dispatcher, "_compilation_chain_init_hook"):
+                dispatcher._compilation_chain_init_hook = _no_extensions
+        count += isinstance(cache, LightCache)
     return count

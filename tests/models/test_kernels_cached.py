@@ -124,17 +124,26 @@ def test_lighten_changes_only_disk_cached_dispatchers():
     def square(x):
         return x * x
 
+    def cube(x):
+        return x * x * x
+
+    def wrapper(x):
+        return wrapper.__wrapped__(x)
+
     module = types.ModuleType("scratch")
     module.cached = numba.njit(cache=True)(square)
     module.plain = numba.njit(square)
     module.other = square
-    assert _cached.lighten(module) == 1
-    assert type(module.cached._cache) is _cached.LightCache
-    assert module.cached._compilation_chain_init_hook is _cached._no_extensions
+    wrapper.__wrapped__ = numba.njit(cache=True)(cube)  # as loops_microfacet.wide's
+    module.wrapped = wrapper
+    assert _cached.lighten(module) == 2
+    for cached in (module.cached, wrapper.__wrapped__):
+        assert type(cached._cache) is _cached.LightCache
+        assert cached._compilation_chain_init_hook is _cached._no_extensions
     assert type(module.plain._cache).__name__ == "NullCache"
     assert module.plain._compilation_chain_init_hook is not _cached._no_extensions
-    assert _cached.lighten(module) == 1  # once
-    assert module.cached(3.0) == 9.0
+    assert _cached.lighten(module) == 2  # once
+    assert module.cached(3.0) == 9.0 and module.wrapped(2.0) == 8.0
 
 
 def test_a_metrics_pass_gives_its_loop_one_layout(monkeypatch):
