@@ -43,12 +43,14 @@ from numba.core.dispatcher import Dispatcher
 
 __all__ = ["LightCache", "lighten"]
 
-#: What :class:`LightCache` relies on in numba (0.59 to 0.68 have them).
+#: What :class:`LightCache` relies on in numba (0.68.1 has them; checked here, as
+#: the runtime is below, so that another numba keeps its own cache).
 _NEEDED = ("_load_overload", "_guard_against_spurious_io_errors", "load_overload")
 
 
 def _runtime():
-    """numba's reference-counting runtime, or None where it is not where 0.68 has it."""
+    """numba's reference-counting runtime (``numba.core.runtime.rtsys``), or None in a
+    numba that keeps it elsewhere."""
     try:
         from numba.core.runtime import rtsys
     except ImportError:
