@@ -43,7 +43,7 @@ NEEDS_LIGHT = pytest.mark.skipif(
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: A compiled ward fit in a fresh interpreter (``PRELUDE`` first); prints what it
+#: A compiled ward fit in a fresh interpreter (``prelude`` first); prints what it
 #: loaded and how, and the fit's parameters and loss as exact hexadecimal floats.
 FIT = """
 import json, sys
