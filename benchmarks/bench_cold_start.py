@@ -15,12 +15,13 @@ of loading each tree's code:
 
 First compiled fit (``--first-fit``, this tree only): where a process's first fit
 with the compiled kernels spends its extra time, step by step in fresh processes
-(the kernels' disk cache warm): ``import numba``, the loop module, ``scipy.linalg``
-(numba imports it on its first compilation or cache load, to find BLAS: numba's
-``arraymath._check_blas``), the first loop's first call (numba's target context:
-its typing and lowering registries, the runtime's own compilation, then the cache
-load), a second loop's first call, and the five loop modules a ward fit no longer
-imports; then each model's first and second fit of the same 50,000 pairs.
+(the kernels' disk cache warm): ``import numba``, the loop module, the first loop's
+first call (numba's runtime compiled, then the cache load:
+:mod:`brdffit.kernels._cached`), a second loop's first call, the five loop modules
+a ward fit no longer imports, and last what a cache load no longer does: numba's
+target context's registries, which import ``scipy.linalg`` (numba's
+``arraymath._check_blas``; a compilation still refreshes them); then each model's
+first and second fit of the same 50,000 pairs.
 
     python benchmarks/bench_cold_start.py --old /tmp/brdffit-old --runs 9
     python benchmarks/bench_cold_start.py --first-fit --runs 7
@@ -124,17 +125,20 @@ def steps_worker() -> None:
 
     step("import numba", lambda: __import__("numba"))
     step("import the loop module", lambda: kernels.wanted(10**6, modules=("loops",)))
-    step("import scipy.linalg (numba's BLAS check)", lambda: __import__("scipy.linalg"))
     from brdffit.kernels import loops
 
     x, out, targets = np.random.rand(50_000), np.empty(50_000), np.random.rand(3, 50_000)
-    step("first call of a loop (numba's context, cache load)",
+    step("first call of a loop (numba's runtime, cache load)",
          lambda: loops.ward(x, x, 0.01, 1.0, 0.0, out))  # fmt: skip
     step("first call of a second loop (cache load)",
          lambda: loops.moments(x, np.empty(0), targets))  # fmt: skip
     others = ("loops_empirical", "loops_he", "loops_microfacet", "loops_renderers")
     step("the five loop modules a ward fit no longer imports",
          lambda: kernels.wanted(10**6, modules=(*others, "plastic_table")))  # fmt: skip
+    from numba.core.registry import cpu_target
+
+    step("numba's registries with scipy.linalg (no longer refreshed by a cache load)",
+         cpu_target.target_context.refresh)  # fmt: skip
     print(json.dumps(steps))
 
 

@@ -11,16 +11,19 @@ are switched off:
 
 - by default they run on geometries of at least :data:`MIN_PAIRS` direction pairs:
   below that a fit is short anyway, and importing numba and loading the compiled
-  loops (0.5 s of CPU, ``benchmarks/bench_cold_start.py --first-fit``) would cost a
-  small fit more than it saves, so small fits run exactly as without numba (and
-  never import it); a model may set its own size (``he``'s series repays the load
-  at every size, :mod:`brdffit.models.wave`);
+  loops (0.2 s of CPU, 0.5 s before the loops loaded without numba's registries,
+  :mod:`brdffit.kernels._cached`; ``benchmarks/bench_cold_start.py --first-fit``)
+  would cost a small fit more than it saves, so small fits run exactly as without
+  numba (and never import it); a model may set its own size (``he``'s series repays
+  the load at every size, :mod:`brdffit.models.wave`);
 - the environment variable ``BRDFFIT_KERNELS=0`` switches them off for a process,
   ``BRDFFIT_KERNELS=1`` on for every size;
 - ``with brdffit.kernels.use(False):`` (or ``use(True)``) does the same for a block
   (the tests run every model's reference tests both ways).
 
-The loops are compiled on first use and cached on disk (numba's ``cache=True``).
+The loops are compiled on first use and cached on disk (numba's ``cache=True``);
+a process loads them from there without numba's registries
+(:mod:`brdffit.kernels._cached`).
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import contextlib
 import importlib
 import importlib.util
 import os
+import sys
 import warnings
 
 __all__ = ["COMPILED_MODELS", "MIN_PAIRS", "available", "enabled", "install", "use", "wanted"]
@@ -75,6 +79,7 @@ def _loaded(module: str) -> bool:
     if module not in loaded:
         try:
             importlib.import_module(f".{module}", __name__)
+            _lighten()
         except Exception as exc:  # ImportError, or numba's own errors on import
             warnings.warn(
                 f"brdffit's compiled kernels are off: importing them failed ({exc}); "
@@ -86,6 +91,18 @@ def _loaded(module: str) -> bool:
         else:
             loaded[module] = True
     return loaded[module]
+
+
+def _lighten() -> None:
+    """Let the cached loops of the kernel modules imported so far load without
+    numba's registries (:mod:`brdffit.kernels._cached`), each module once."""
+    from ._cached import lighten
+
+    done = _state.setdefault("lightened", set())
+    for name, module in list(sys.modules.items()):
+        if name.startswith(f"{__name__}.") and module is not None and name not in done:
+            done.add(name)
+            lighten(module)
 
 
 @contextlib.contextmanager

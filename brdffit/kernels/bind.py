@@ -58,8 +58,10 @@ class _Lobe:
             return self.run(geometry, shape, float(ks), float(kd) * INV_PI)
         lobe = self.run(geometry, shape, 1.0, 0.0)
         c = max(np.size(kd), np.size(ks))
+        # copies, always writable: numba types a read-only array apart, and a view
+        # here (ks per channel) or a copy (ks shared) made two signatures to load
         scale, offset = (
-            np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=float), (c,)))
+            np.array(np.broadcast_to(np.asarray(v, dtype=float), (c,)))
             for v in (ks, np.multiply(kd, INV_PI))
         )
         return _loops().affine_by_channel(lobe, scale, offset, np.empty((geometry.m, c)))

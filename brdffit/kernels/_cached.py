@@ -1,0 +1,105 @@
+"""Loading the compiled loops from numba's disk cache without numba's registries.
+
+A first compiled fit in a process paid about 0.45 s of CPU before its loops ran
+(``benchmarks/README.md``, "The first compiled fit in a process"): numba's import
+(0.13 s), then, on the first load of a cached loop, numba's
+``FunctionCache.load_overload``, which refreshes the CPU target's typing and
+lowering registries before it reads the cached machine code: it imports some
+seventy modules of numba (its typed containers, random generators, polynomials,
+datetimes, cffi and pycparser) and, through ``numba.np.arraymath``'s check for a
+BLAS, ``scipy.linalg`` (0.15-0.25 s; nothing else in a fit imports it), and
+installs every registry's templates: 0.3-0.4 s of CPU in all. The registries serve
+typing and lowering, i.e. compilation. A loop loaded from the cache is not
+compiled: its machine code is read (``CompileResult._rebuild``: the object code
+into numba's JIT, the entry point made callable), and it needs only what that code
+links against: numba's C helpers (installed when the target context is made) and
+numba's reference-counting runtime (NRT, whose ``initialize`` compiles its
+functions once, 0.02 s). :class:`LightCache` loads the loops that way: it
+initialises the NRT and reads the cache, where numba's cache refreshes the whole
+context first.
+
+Before that, a dispatcher's first call ran numba's ``entrypoints.init_all``, which
+reads the metadata of every installed distribution for numba extensions (0.02 s
+with 160 distributions, more in larger environments). Extensions, too, serve
+typing and lowering, and numba's refresh before a compilation initialises them
+(``CPUContext.load_additional_registries``), so the loops' dispatchers skip that
+call.
+
+The machine code, and so every value, is the same (the tests compare a fit loaded
+both ways bit for bit). A loop that is not in the cache (a fresh install, an
+edited module) is compiled by numba as before, which refreshes the registries and
+initialises the extensions itself (``CompilerBase``); so does any other numba code
+in the process.
+
+:func:`lighten` gives the dispatchers of a loop module both; numba's own cache
+stays where the numba internals it relies on are missing (another numba
+version), so the loops then load as before, only slower.
+"""
+
+from __future__ import annotations
+
+from numba.core import caching
+from numba.core.dispatcher import Dispatcher
+
+__all__ = ["LightCache", "lighten"]
+
+#: What :class:`LightCache` relies on in numba (0.68.1 has them; checked here, as
+#: the runtime is below, so that another numba keeps its own cache).
+_NEEDED = ("_load_overload", "_guard_against_spurious_io_errors", "load_overload")
+
+
+def _runtime():
+    """numba's reference-counting runtime (``numba.core.runtime.rtsys``), or None in a
+    numba that keeps it elsewhere."""
+    try:
+        from numba.core.runtime import rtsys
+    except ImportError:
+        return None
+    return rtsys if callable(getattr(rtsys, "initialize", None)) else None
+
+
+_RTSYS = _runtime()
+_USABLE = _RTSYS is not None and all(hasattr(caching.FunctionCache, n) for n in _NEEDED)
+
+
+class LightCache(caching.FunctionCache):
+    """numba's cache of a function's machine code, loaded without the registries."""
+
+    def load_overload(self, sig, target_context):
+        """The cached compile result of ``sig``, or None (numba then compiles).
+
+        numba's own method refreshes ``target_context`` first; here only the runtime
+        the machine code links against is initialised (see the module's doc)."""
+        _RTSYS.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+        return None  # the guard swallowed an I/O error on Windows, as numba's own
+
+
+def _no_extensions() -> None:
+    """A dispatcher's compilation-chain hook that leaves numba's extensions to the
+    refresh before a compilation (see the module's doc)."""
+
+
+def lighten(module) -> int:
+    """Give each dispatcher of ``module`` that caches on disk :class:`LightCache`
+    (once; its cache's state is kept: only the class of the cache object changes)
+    and a first call without numba's scan for extensions: the module's dispatchers
+    and those its functions wrap (``__wrapped__``). Returns how many have them."""
+    if not _USABLE:
+        return 0
+    found = {}
+    for value in vars(module).values():
+        # a dispatcher, or a function wrapping one (loops_microfacet.wide)
+        for candidate in (value, getattr(value, "__wrapped__", None)):
+            if isinstance(candidate, Dispatcher):
+                found[id(candidate)] = candidate
+    count = 0
+    for dispatcher in found.values():
+        cache = getattr(dispatcher, "_cache", None)
+        if type(cache) is caching.FunctionCache:
+            cache.__class__ = LightCache  # the same object: a subclass, no new state
+            if hasattr(dispatcher, "_compilation_chain_init_hook"):
+                dispatcher._compilation_chain_init_hook = _no_extensions
+        count += isinstance(cache, LightCache)
+    return count
