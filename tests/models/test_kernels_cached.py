@@ -38,7 +38,8 @@ def _usable() -> bool:
 #: keeps numba's own cache (the tests of the signatures hold either way).
 NEEDS_LIGHT = pytest.mark.skipif(
     kernels.available() and not _usable(),
-    reason="this numba lacks the internals brdffit's light cache load relies on",
+    reason=f"numba {numba.__version__} is not a release brdffit's light cache load was "
+    "checked against (kernels._cached.TESTED_RELEASES), or lacks the internals it uses",
 )
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -136,6 +137,18 @@ def test_numba_compiles_new_code_in_the_process_afterwards(light_and_numbas):
 
 
 @NEEDS_LIGHT
+def test_only_a_checked_numba_release_loads_light():
+    """The light load is for the numba releases it was checked against; a version
+    string's release is its major and minor number, whatever follows."""
+    from brdffit.kernels import _cached
+
+    assert _cached._release("0.68.1") == (0, 68)
+    assert _cached._release("0.69.0rc1") == (0, 69)
+    assert _cached._release("1.0") == (1, 0)
+    checked = _cached._release(numba.__version__) in _cached.TESTED_RELEASES
+    assert checked or not _cached._USABLE
+
+
 def test_lighten_changes_only_disk_cached_dispatchers():
     from brdffit.kernels import _cached
 
