@@ -36,7 +36,6 @@ from statistics import NormalDist
 
 import numpy as np
 
-from .runs import lexsort as _lexsort  # noqa: F401 (the complex-key sort, as before)
 from .runs import orders as _stable_orders
 from .runs import residual_signs as _residual_signs
 from .runs import runs as _runs

@@ -24,6 +24,7 @@ import brdffit
 from brdffit.data.geometry import directions_from_angles
 from brdffit.fitting import misfit
 from brdffit.fitting.misfit import ALPHA, _message, misfit_test
+from brdffit.fitting.runs import lexsort
 
 
 def _reference_runs(z):
@@ -208,9 +209,9 @@ def test_the_complex_sort_is_numpys_lexsort():
     secondary = rng.integers(-3, 3, 20_000) * 0.5
     primary[::7] = -0.0
     for a, b in ((primary, secondary), (secondary, primary)):
-        assert np.array_equal(misfit._lexsort(a, b), np.lexsort((b, a)))
+        assert np.array_equal(lexsort(a, b), np.lexsort((b, a)))
     smooth = rng.random(5000)
-    assert np.array_equal(misfit._lexsort(smooth, -smooth), np.argsort(smooth))
+    assert np.array_equal(lexsort(smooth, -smooth), np.argsort(smooth))
 
 
 @pytest.mark.parametrize("p", [ALPHA, ALPHA / 2, ALPHA / 6, ALPHA / 62, 0.05, 0.5])
