@@ -38,8 +38,8 @@ def _merl_pairs():
                                    lambda: gonio_pairs(12_000, seed=4),
                                    _merl_pairs])  # fmt: skip
 def test_the_compiled_half_terms_are_numpys_bit_for_bit(pairs):
-    """|L + V|, cos_h and cos_d formed in one compiled pass (a MERL file's 25 -> 4 ms)
-    are numpy's values bit for bit, and so is every term formed from them."""
+    """|L + V|, cos_h and cos_d formed in one compiled pass are numpy's values bit for
+    bit, and so is every term formed from them."""
     importlib.import_module("brdffit.kernels.loops")  # loaded: the geometry may use them
     wi, wo = pairs()
     wi[:7, :] = [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.6, 0.0, 0.8],
