@@ -284,3 +284,31 @@ def test_feasibility_without_tolerance_is_the_slack_formula_s():
         for constraints in (None, rows):
             got = linear._feasible(x, lower, upper, constraints)
             np.testing.assert_array_equal(got, plain(x, lower, upper, constraints, 0.0))
+
+
+def test_the_states_objective_is_the_objective_of_each_state():
+    """The enumeration's residual sums of the 3^K states by one batched matmul are
+    :func:`_objective`'s of each state's coefficients, to the rounding of K products."""
+    from brdffit.fitting import linear
+
+    rng = np.random.default_rng(11)
+    a, y = rng.uniform(0, 1, (200, 3)), rng.uniform(0, 1, (200, 4))
+    normal = normal_equations(a, y, rng.uniform(0.2, 3, (200, 4)))
+    x = rng.uniform(-1, 2, (27, 4, 3))  # (S, C, K)
+    want = np.array([linear._objective(normal, state) for state in x])
+    np.testing.assert_allclose(linear._state_objective(normal, x), want, rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("w", [None, "per_sample", "per_value"])
+def test_column_major_targets_give_the_row_major_ones_normal_equations(w):
+    """A^T W y taken as (W y)^T A for a column-major W y (a table's columns): the same
+    sums as for the row-major copy of the same values, to their rounding."""
+    rng = np.random.default_rng(12)
+    a, y = rng.uniform(0, 1, (1439, 3)), np.asfortranarray(rng.uniform(0, 1, (1439, 31)))
+    per_value = np.asfortranarray(rng.uniform(0.2, 3, y.shape))
+    w = {None: None, "per_sample": rng.uniform(0.2, 3, 1439)}.get(w, per_value)
+    assert weighted_target(y, w)[0].flags.f_contiguous  # the (W y)^T A side is taken
+    got, want = normal_equations(a, y, w), normal_equations(a, np.ascontiguousarray(y), w)
+    np.testing.assert_array_equal(got.gram, want.gram)
+    np.testing.assert_allclose(got.rhs, want.rhs, rtol=1e-13)
+    np.testing.assert_allclose(got.yy, want.yy, rtol=1e-13)  # summed in either layout
