@@ -465,8 +465,10 @@ async function downloadExport(job, target, button, status) {
   try {
     const made = await exportOf(job, target);
     const text = typeof made.document === "string" ? made.document : JSON.stringify(made.document, null, 2);
-    // The library names the ending; the target too when they differ (two are JSON).
-    const name = made.extension === target ? `${job.model}.${target}` : `${job.model}.${target}.${made.extension}`;
+    // The library names the ending (a job stored before answers gave it has none: .txt);
+    // the target too when they differ (two are JSON).
+    const ending = made.extension || "txt";
+    const name = ending === target ? `${job.model}.${target}` : `${job.model}.${target}.${ending}`;
     save(new Blob([text], { type: "application/octet-stream" }), name);
     const e = made.conversion_error;
     status.textContent = `Saved ${name}: ${e.exact ? "an exact" : "an approximate"} ${target} material; `
