@@ -391,3 +391,9 @@ def test_shadowing_of_both_directions_at_once_is_each_direction_s(distribution):
             geometry, distribution, np.array([[alpha_u]]), np.array([[alpha_v]]), f0
         )
         np.testing.assert_array_equal(stacked, alone[0])
+        # the isotropic lobes' one number for both directions (D aside: ones)
+        g1, a2, m = renderers._DISTRIBUTIONS[distribution][2], alpha_u**2, geometry.m
+        stacked = renderers._finish(geometry, np.ones(m), g1, a2, a2, f0)
+        a2 = np.array([[a2]])
+        alone = renderers._finish(geometry, np.ones((1, m)), g1, a2, a2, f0)
+        np.testing.assert_array_equal(stacked, alone[0])
