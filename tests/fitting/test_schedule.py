@@ -48,6 +48,20 @@ def _old_metrics(pred, y, ctx, n_params):
     return out
 
 
+def _context(data, pred, y, extras: str, seed: int) -> LossContext:
+    """The loss context of ``data`` with ``extras``: none, random weights, or sigma and
+    a noise level."""
+    rng = np.random.default_rng(seed)
+    both = extras == "sigma and noise"
+    return LossContext(
+        cos_i=np.maximum(data.wi[:, 2], 0.0),
+        y=y,
+        sigma=0.01 + 0.05 * np.abs(y) if both else None,
+        weights=rng.uniform(0.0, 2.0, data.n) if extras == "weights" else None,
+        noise_sigma=0.02 + 0.1 * np.abs(pred) if both else None,
+    )
+
+
 @pytest.mark.parametrize("compiled", [False, True], ids=["numpy", "compiled"])
 @pytest.mark.parametrize("block", [16_384, 1000])
 @pytest.mark.parametrize("extras", ["none", "weights", "sigma and noise"])
@@ -69,14 +83,7 @@ def test_metrics_from_one_residual_equal_the_old_formula(
     problem = Problem(ward_data, "ward")
     pred = np.asarray(problem.predict(dict(result.params)))
     y = np.asarray(ward_data.values)
-    rng = np.random.default_rng(1)
-    ctx = LossContext(
-        cos_i=np.maximum(ward_data.wi[:, 2], 0.0),
-        y=y,
-        sigma=0.01 + 0.05 * np.abs(y) if extras == "sigma and noise" else None,
-        weights=rng.uniform(0.0, 2.0, ward_data.n) if extras == "weights" else None,
-        noise_sigma=0.02 + 0.1 * np.abs(pred) if extras == "sigma and noise" else None,
-    )
+    ctx = _context(ward_data, pred, y, extras, seed=1)
     new, old = metrics_of(pred, y, ctx, 7), _old_metrics(pred, y, ctx, 7)
     assert sorted(new) == sorted(old)
     assert len(old) >= 8
@@ -281,14 +288,7 @@ def test_the_compiled_metrics_of_rgb_one_and_four_channels_equal_the_old_formula
     pred = np.asarray(Problem(data, "ward").predict(params))
     y = np.asarray(data.values).reshape(pred.shape).copy()
     y[::97] = -3.0 * np.abs(y[::97]) - 2.0  # 1 + y cos below 1e-12 at some
-    rng = np.random.default_rng(2)
-    ctx = LossContext(
-        cos_i=np.maximum(data.wi[:, 2], 0.0),
-        y=y,
-        sigma=0.01 + 0.05 * np.abs(y) if extras == "sigma and noise" else None,
-        weights=rng.uniform(0.0, 2.0, data.n) if extras == "weights" else None,
-        noise_sigma=0.02 + 0.1 * np.abs(pred) if extras == "sigma and noise" else None,
-    )
+    ctx = _context(data, pred, y, extras, seed=2)
     with kernels.use(True):
         new = metrics_of(pred, y, ctx, 5)
     old = _old_metrics(pred, y, ctx, 5)
