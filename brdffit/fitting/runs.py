@@ -76,7 +76,7 @@ def _ranks(*keys: np.ndarray) -> list | None:
         if not key.size:
             return None
         # every distinct value starts a run of equal keys: the distinct values of the
-        # runs' first keys (a MERL file's 274,054 keys start 15,000-19,000 runs)
+        # runs' first keys (a MERL file's 274,054 keys start 14,584 and 19,303 runs)
         starts = np.empty(key.size, dtype=bool)
         starts[0] = True
         np.not_equal(key[1:], key[:-1], out=starts[1:])
