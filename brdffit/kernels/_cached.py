@@ -38,6 +38,8 @@ version), so the loops then load as before, only slower.
 
 from __future__ import annotations
 
+import re
+
 import numba
 from numba.core import caching
 from numba.core.dispatcher import Dispatcher
@@ -68,9 +70,12 @@ TESTED_RELEASES = ((0, 68),)
 
 
 def _release(version: str) -> tuple:
-    """``(major, minor)`` of a version string such as ``0.68.1`` or ``0.69.0rc1``."""
-    major, minor = [*version.split("."), "0", "0"][:2]
-    return int(major), int("".join(ch for ch in minor if ch.isdigit()) or 0)
+    """``(major, minor)`` of a version string such as ``0.68.1`` or ``0.69.0rc1``: the
+    leading digits of its first two parts, 0 where there are none (a source build's
+    ``0+unknown`` is ``(0, 0)``, not a release checked, rather than an error that
+    would switch the kernels off)."""
+    parts = [*version.split("."), "0", "0"][:2]
+    return tuple(int(re.match(r"\d*", part).group() or 0) for part in parts)
 
 
 _USABLE = (

@@ -145,6 +145,8 @@ def test_only_a_checked_numba_release_loads_light():
     assert _cached._release("0.68.1") == (0, 68)
     assert _cached._release("0.69.0rc1") == (0, 69)
     assert _cached._release("1.0") == (1, 0)
+    assert _cached._release("0.68rc1") == (0, 68)
+    assert _cached._release("0+unknown") == (0, 0)  # a source build: not checked
     checked = _cached._release(numba.__version__) in _cached.TESTED_RELEASES
     assert checked or not _cached._USABLE
 
