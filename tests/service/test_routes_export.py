@@ -36,9 +36,11 @@ def test_export_answers_the_library_export(client):
     assert body["conversion_error"]["rms_log_target"] == pytest.approx(0.0, abs=1e-12)
 
 
-@pytest.mark.parametrize("target", list(brdffit.export_targets()))
+@pytest.mark.parametrize("target", ["mitsuba-xml", "gltf"])
 def test_the_answer_names_the_library_file_ending(client, target):
-    """The page names a download by the answer's ending, not by a table of its own."""
+    """The page names a download by the answer's ending, not by a table of its own. (The
+    route passes any target's answer through; the library's endings, every target's,
+    are held in tests/export/test_export.py.)"""
     r = client.post("/export", json={"result": GLTF, "target": target})
     assert r.status_code == 200, r.text
     assert r.json()["extension"] == brdffit.export(GLTF, target).extension
