@@ -44,7 +44,8 @@ import sys
 import numba
 import numpy as np
 
-from ._compile import FLAGS
+from ._compile import _LOG2E, FLAGS
+from ._compile import _ROUNDER as _ROUND
 from ._compile import _bits_of_double as _bits
 from ._compile import _double_from_bits as _float
 from .elementary import _SHIFT, Z_MAX, fit_exp_polynomial, log_series
@@ -95,8 +96,6 @@ EXP2_FLOOR = -1020.0
 #: What :func:`log2_pair` reads in place of an argument below it (``log2`` is -1022).
 LOG2_FLOOR = sys.float_info.min
 
-_LOG2E = 1.4426950408889634
-_ROUND = 1.5 * 2.0**52
 _MANTISSA = (1 << 52) - 1
 _SQRT_HALF_BITS = 0x3FF0000000000000 - _SHIFT  # the bits of sqrt(1/2)
 _K_BIAS = 2.0**52 + 1023.0  # the float of the bits 0x433 << 52 | kb is 2^52 + kb

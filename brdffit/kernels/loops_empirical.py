@@ -36,7 +36,7 @@ import math
 import numba
 import numpy as np
 
-from ._compile import FLAGS, jit
+from ._compile import _LOG2E, FLAGS, jit
 from .base2 import fast_exp2, log2_pair
 from .elementary import fast_exp_short, fast_log, fast_log1p
 from .wide import prefer_wide_vectors
@@ -44,7 +44,6 @@ from .wide import prefer_wide_vectors
 #: The fast-math flags of the helpers that round as numpy does (no fused
 #: multiply-add): see the module docstring.
 _SEPARATE = FLAGS - {"contract"}
-_LOG2E = 1.4426950408889634
 
 
 @numba.njit(cache=True, fastmath=_SEPARATE, error_model="numpy")
