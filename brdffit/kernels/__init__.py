@@ -79,7 +79,6 @@ def _loaded(module: str) -> bool:
     if module not in loaded:
         try:
             importlib.import_module(f".{module}", __name__)
-            _lighten()
         except Exception as exc:  # ImportError, or numba's own errors on import
             warnings.warn(
                 f"brdffit's compiled kernels are off: importing them failed ({exc}); "
@@ -90,19 +89,27 @@ def _loaded(module: str) -> bool:
             loaded[module] = False
         else:
             loaded[module] = True
+            _lighten()
     return loaded[module]
 
 
 def _lighten() -> None:
     """Let the cached loops of the kernel modules imported so far load without
-    numba's registries (:mod:`brdffit.kernels._cached`), each module once."""
-    from ._cached import lighten
-
+    numba's registries (:mod:`brdffit.kernels._cached`), each module once. Where that
+    fails (another numba's internals), the loops load numba's way: slower, the same
+    values, and the kernels stay on."""
+    try:
+        from ._cached import lighten
+    except Exception:
+        return
     done = _state.setdefault("lightened", set())
     for name, module in list(sys.modules.items()):
         if name.startswith(f"{__name__}.") and module is not None and name not in done:
             done.add(name)
-            lighten(module)
+            try:
+                lighten(module)
+            except Exception:
+                continue
 
 
 @contextlib.contextmanager

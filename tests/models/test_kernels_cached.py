@@ -209,3 +209,23 @@ def test_a_per_channel_evaluation_loads_one_signature():
         for kd, ks in [([0.1, 0.2, 0.3], 0.5), ([0.1, 0.2, 0.3], [0.5, 0.4, 0.3])]:
             model.evaluate(wi, wo, {"kd": np.array(kd), "ks": np.array(ks), **shape})
     assert len(loops.affine_by_channel.signatures) == 1
+
+
+def test_a_failing_light_load_leaves_the_kernels_on(monkeypatch):
+    """The light load only saves time: where it fails (another numba's internals), the
+    loops load numba's way and the kernels stay on, without a warning that they are
+    off. (It ran inside the import's try: a failure switched every kernel off.)"""
+    import warnings
+
+    from brdffit.kernels import _cached
+
+    def broken(module):
+        raise AttributeError("a numba without these internals")
+
+    monkeypatch.setattr(_cached, "lighten", broken)
+    monkeypatch.setitem(kernels._state, "loaded", {})
+    monkeypatch.setitem(kernels._state, "lightened", set())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert kernels.wanted(10**6)
+    assert kernels._state["loaded"] == {"loops": True}
