@@ -140,7 +140,8 @@ def fournier(log_cos_h, cos_h, half_t, n, t, a, b, out):
     sum near 1e-300 is a normal number in the sum (before, the terms were added
     relative to the largest, which took a sort of three a pair). Two things the
     pieces leave are below rounding: ``2^(y < -1020)`` reads as ``2^-1020``, ``2^-1084``
-    after the scaling, below half the smallest subnormal number; a tilted cosine at
+    after the scaling by ``2^-64`` (every ``a`` below about 1e282, far above ks's range
+    of at most 1e4), below half the smallest subnormal number; a tilted cosine at
     or below 0 (whose power is 0) reads as the smallest normal number ``2^-1022``,
     whose power ``2^(-1022 n)`` is below ``1e-290^n`` of the central lobe's
     ``(N.H)^n``, ``N.H >= 1e-10`` (Geometry's clamp). Tested: within 2e-12 of the
