@@ -14,8 +14,11 @@ from service_helpers import WARD_CSV, example_measurements, wait_for
 import brdffit
 from brdffit_service.exports import with_exports
 from brdffit_service.schemas import EXAMPLE_DATA, FitResultOut
+from brdffit_service.schemas.results import ExportOut
 
-EXPORT_KEYS = {"target", "document", "parameters", "conversion_error", "notes"}
+#: An export's fields, as its schema declares them (test_schemas holds the library's
+#: Export.to_dict() to the same).
+EXPORT_KEYS = set(ExportOut.model_fields)
 
 
 def _library_export(answer: dict, target: str, data) -> dict:
@@ -35,6 +38,7 @@ def test_a_fit_answers_each_export_once_as_the_library_makes_it(client):
         assert set(export) == EXPORT_KEYS
         expected = _library_export(got, export["target"], data)
         assert export["document"] == expected["document"]
+        assert export["extension"] == expected["extension"]
         assert export["conversion_error"]["against"] == "data"
         assert export["conversion_error"]["n_directions"] == data.n
     assert got["exports"][0]["document"]["materials"][0]["pbrMetallicRoughness"]
