@@ -135,6 +135,14 @@ def compiled_for_every_size():
         yield
 
 
+def calls_of(monkeypatch, owner, name: str) -> list:
+    """Count the calls of ``owner.name`` (a list growing by one a call; the function
+    still runs): to tell which of two paths ran."""
+    calls, real = [], getattr(owner, name)
+    monkeypatch.setattr(owner, name, lambda *a: calls.append(1) or real(*a))
+    return calls
+
+
 def run_cli(capsys, *argv):
     """``brdffit *argv`` in-process: the exit code, stdout and stderr."""
     from brdffit.cli.main import main

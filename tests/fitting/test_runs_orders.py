@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import NEEDS_KERNELS, calls_of
 
 import brdffit
 from brdffit import kernels
 from brdffit.fitting import misfit, runs
 
-pytestmark = pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
+pytestmark = NEEDS_KERNELS
 
 
 @pytest.fixture
@@ -20,9 +21,7 @@ def counted(monkeypatch):
     """The calls of the counting sort (to tell which path ran)."""
     from brdffit.kernels import loops_runs
 
-    calls, real = [], loops_runs.order_by_ranks
-    monkeypatch.setattr(loops_runs, "order_by_ranks", lambda *a: calls.append(1) or real(*a))
-    return calls
+    return calls_of(monkeypatch, loops_runs, "order_by_ranks")
 
 
 def _assert_orders(a, b, calls, counting):
@@ -80,8 +79,7 @@ def test_the_compiled_residual_signs_are_the_codes_of_the_residuals(step, monkey
     numpy's residuals (exact zeros, NaN, infinities, ties at the largest doubles)."""
     from brdffit.kernels import loops_runs
 
-    calls, real = [], loops_runs.sign_codes_every
-    monkeypatch.setattr(loops_runs, "sign_codes_every", lambda *a: calls.append(1) or real(*a))
+    calls = calls_of(monkeypatch, loops_runs, "sign_codes_every")
     rng = np.random.default_rng(step)
     n = kernels.MIN_PAIRS * step + 5
     pred = rng.standard_normal((n, 3))

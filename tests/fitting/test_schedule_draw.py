@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import hemisphere_pairs, make_data
+from helpers import NEEDS_KERNELS, calls_of, hemisphere_pairs, make_data
 
 import brdffit
 from brdffit import Measurements, kernels
 from brdffit.fitting import schedule
 from brdffit.fitting.problem import Problem
 
-pytestmark = pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
+pytestmark = NEEDS_KERNELS
 
 
 @pytest.fixture
@@ -20,9 +20,7 @@ def compiled_calls(monkeypatch):
     """The calls of the compiled draw's walk (to tell which path ran)."""
     from brdffit.kernels import loops_schedule
 
-    calls, real = [], loops_schedule.draw
-    monkeypatch.setattr(loops_schedule, "draw", lambda *a: calls.append(1) or real(*a))
-    return calls
+    return calls_of(monkeypatch, loops_schedule, "draw")
 
 
 def _both(geometry, targets, size, seed, calls) -> tuple:
