@@ -294,3 +294,14 @@ def test_the_compiled_metrics_of_rgb_one_and_four_channels_equal_the_old_formula
     assert sorted(new) == sorted(old)
     for name in old:
         assert new[name] == pytest.approx(old[name], rel=1e-12, abs=1e-300), name
+
+
+def test_the_fits_blocks_are_whole_blocks_of_the_compiled_sums():
+    """The compiled sums add blocks of loops_sums.BLOCK from each call's ``start``; the
+    fit calls them every sums.BLOCK samples, so for its blocks to be the same blocks
+    whatever the call (the sums' rounding with them) one must divide the other."""
+    if not kernels.available():
+        pytest.skip("numba is not installed: no compiled sums")
+    from brdffit.kernels import loops_sums
+
+    assert sums.BLOCK % loops_sums.BLOCK == 0, (sums.BLOCK, loops_sums.BLOCK)
