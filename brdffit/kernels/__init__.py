@@ -15,7 +15,7 @@ are switched off:
   :mod:`brdffit.kernels._cached`; ``benchmarks/bench_cold_start.py --first-fit``)
   would cost a small fit more than it saves, so small fits run exactly as without
   numba (and never import it); a model may set its own size (``he``'s series repays
-  the load at every size, :mod:`brdffit.models.wave`);
+  the load at every size, :class:`brdffit.kernels.bind.CompiledDesign`);
 - the environment variable ``BRDFFIT_KERNELS=0`` switches them off for a process,
   ``BRDFFIT_KERNELS=1`` on for every size;
 - ``with brdffit.kernels.use(False):`` (or ``use(True)``) does the same for a block
@@ -173,4 +173,5 @@ COMPILED_MODELS = (
     "mitsuba_principled",
     "mitsuba_principled_anisotropic",
     "mitsuba_roughplastic",
+    "he",
 )

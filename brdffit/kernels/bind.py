@@ -85,6 +85,44 @@ class _AshikhminShirley:
         return _loops().ashikhmin_shirley(*terms, nu, nv, rd_eff, rs, np.empty(geometry.m))
 
 
+class _He:
+    """``he``: the column ``1 / pi`` (``a_ud``) and the offset ``rho_s + rho_dd`` of
+    :func:`~brdffit.kernels.loops_he.he_offset`; :meth:`evaluate` adds ``a_ud / pi``
+    in the same pass. Its shape parameters are numbers and ``wavelength`` one or one
+    per channel (:meth:`takes`; a batch of shapes, each row's shape compiled). Compiled from one
+    pair on: the numpy series costs milliseconds an evaluation at any size, a
+    568-sample fit 1.15 s against 0.16 s compiled, which repays numba's load within
+    one fit (benchmarks/README.md)."""
+
+    minimum = 1
+    by_channel = True
+    #: :meth:`evaluate` needs no other module for coefficients per channel.
+    channel_modules = ("loops_he",)
+
+    @staticmethod
+    def takes(shape: Mapping) -> bool:
+        scalar = all(np.ndim(v) == 0 for k, v in shape.items() if k != "wavelength")
+        return scalar and np.ndim(shape["wavelength"]) <= 1
+
+    @staticmethod
+    def _offset(geometry, shape: Mapping, diffuse=0.0) -> np.ndarray:
+        from ..models.he_terms import SERIES_TOLERANCE
+
+        return _loops("loops_he").he_offset(geometry, shape, SERIES_TOLERANCE, diffuse)
+
+    def design(self, geometry, shape: Mapping) -> Design:
+        return Design((INV_PI,), offset=self._offset(geometry, shape))
+
+    def evaluate(self, geometry, shape: Mapping, coefs) -> np.ndarray | None:
+        """The BRDF (M,), or (M, C) for C wavelengths; None (combine the design's
+        columns) when ``a_ud`` has channels the wavelengths do not (one wavelength)."""
+        (a_ud,) = coefs
+        channels = np.size(shape["wavelength"]) if np.ndim(shape["wavelength"]) else 0
+        if np.ndim(a_ud) and np.size(a_ud) != channels:
+            return None
+        return self._offset(geometry, shape, np.multiply(INV_PI, a_ud))
+
+
 def _stack_rows(parts: list):
     """One design part over the rows of a batch: the part itself when every row has
     the same object (a constant, a cached column), else the rows stacked (W, M)."""
@@ -155,6 +193,7 @@ SPECS = {
         "loops_microfacet",
     ),
     **{name: _Lobe(*lobe, loops="loops_empirical") for name, lobe in EMPIRICAL_LOBES.items()},
+    "he": _He(),
 }
 SPECS.update(_RENDERER_SPECS)
 
@@ -166,6 +205,8 @@ def _modules(name: str) -> tuple:
         return (spec.loops,)
     if hasattr(spec, "modules"):  # a renderer-native form with a table of its own
         return spec.modules
+    if isinstance(spec, _He):
+        return ("loops_he",)
     return ("loops_renderers",) if name in _RENDERER_SPECS else ("loops",)
 
 
@@ -176,19 +217,30 @@ MODULES = {name: _modules(name) for name in SPECS}
 
 class CompiledDesign:
     """A model's design function computed by its compiled loop when the kernels are
-    wanted for the geometry, else by ``reference`` (the numpy design it replaces)."""
+    wanted for the geometry, else by ``reference`` (the numpy design it replaces).
+
+    A compiled form may set ``minimum`` (the smallest geometry it runs on, default
+    :data:`brdffit.kernels.MIN_PAIRS`), ``takes(shape)`` (whether it computes these
+    shape parameters; numpy does the others) and ``channel_modules`` (the modules its
+    :meth:`evaluate` needs for coefficients per channel)."""
 
     def __init__(
         self, reference: Callable, compiled, wanted: Callable[..., bool], modules=("loops",)
     ):
         self.reference, self.compiled, self._wanted = reference, compiled, wanted
         self.modules = modules
+        self.minimum = getattr(compiled, "minimum", None)
         self.__doc__ = getattr(reference, "__doc__", None)
 
+    def _on(self, geometry, modules=None) -> bool:
+        minimum = () if self.minimum is None else (self.minimum,)
+        return self._wanted(geometry.m, *minimum, modules=modules or self.modules)
+
     def __call__(self, geometry, shape: Mapping) -> Design:
-        if not self._wanted(geometry.m, modules=self.modules):
+        if not self._on(geometry):
             return self.reference(geometry, shape)
-        if all(np.ndim(value) == 0 for value in shape.values()):
+        takes = getattr(self.compiled, "takes", None)
+        if takes(shape) if takes else all(np.ndim(value) == 0 for value in shape.values()):
             return self.compiled.design(geometry, shape)
         return self._batched(geometry, shape)
 
@@ -220,11 +272,15 @@ class CompiledDesign:
         """The BRDF on the valid pairs in one compiled pass, or None when the kernels
         are off or a coefficient is given per channel to a model whose compiled form
         takes one value each (then the caller combines the design's columns)."""
-        if not self._wanted(geometry.m, modules=self.modules):
+        if not self._on(geometry):
             return None
+        takes = getattr(self.compiled, "takes", None)
+        if takes is not None and not takes(shape):
+            return None
+        channel_modules = getattr(self.compiled, "channel_modules", ("loops",))
         if any(np.ndim(c) for c in coefs) and not (
             getattr(self.compiled, "by_channel", False)
-            and self._wanted(geometry.m, modules=("loops",))  # affine_by_channel's module
+            and self._on(geometry, channel_modules)  # affine_by_channel's module
         ):
             return None
         return self.compiled.evaluate(geometry, shape, coefs)

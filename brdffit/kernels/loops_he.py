@@ -250,9 +250,12 @@ def _pair_terms(cos_i, cos_o, cos_d, ratio, sigma0, eta, k, sigma, common):
 
 
 @jit
-def he_offset_loop(cos_i, cos_o, cos_d, cos_r, v_z, v_xy2, lobe, inv_sqrt, wavelength, shape, out):
-    """``rho_s + rho_dd`` of every pair (rows) and wavelength (columns of ``out``), in
-    blocks of :data:`BLOCK` pairs.
+def he_offset_loop(
+    cos_i, cos_o, cos_d, cos_r, v_z, v_xy2, lobe, inv_sqrt, wavelength, diffuse, shape, out
+):
+    """``rho_s + rho_dd + diffuse`` of every pair (rows) and wavelength (columns of
+    ``out``, ``diffuse[c]`` the uniform term ``a_ud / pi`` of column ``c``, 0 for the
+    design's offset), in blocks of :data:`BLOCK` pairs.
 
     ``lobe`` is ``G / (pi (N.L)(N.V))``, ``inv_sqrt`` ``1 / sqrt((N.L)(N.V))``,
     ``wavelength`` in micrometres, ``shape`` the array ``(sigma0, tau, eta, k,
@@ -284,7 +287,8 @@ def he_offset_loop(cos_i, cos_o, cos_d, cos_r, v_z, v_xy2, lobe, inv_sqrt, wavel
                 w = max(1.0 - (1.0 - cos_r[i]) / big_u, 0.0)
                 cone = w * w * w * (inv_sqrt[i] / half_pi_u)
                 d = scale_d * series[j]
-                out[i, c] = common[j] * cone * fast_exp(-g[j]) + common[j] * lobe[i] * d
+                spike = common[j] * cone * fast_exp(-g[j])
+                out[i, c] = (spike + common[j] * lobe[i] * d) + diffuse[c]
     return out
 
 
@@ -312,10 +316,11 @@ def pair_terms(cos_i, cos_o, cos_d, shape, sigma, common):
     return sigma, common
 
 
-def he_offset(geometry: Geometry, shape, tolerance: float) -> np.ndarray:
-    """The specular plus directional-diffuse BRDF of ``he`` on the valid pairs, shape
-    (M,) for one wavelength, (M, C) for C. Shape parameters are numbers
-    (``wavelength`` one or one per channel)."""
+def he_offset(geometry: Geometry, shape, tolerance: float, diffuse=0.0) -> np.ndarray:
+    """The specular plus directional-diffuse BRDF of ``he`` on the valid pairs, plus
+    ``diffuse`` (``a_ud / pi``: a number, or one per wavelength), shape (M,) for one
+    wavelength, (M, C) for C. Shape parameters are numbers (``wavelength`` one or one
+    per channel)."""
     from ..models.wave import _inv_sqrt_cos, spike_support
 
     v_z, v_xy2, lobe = geometry.cached("kernels.he", lambda: _inputs(geometry))
@@ -326,9 +331,11 @@ def he_offset(geometry: Geometry, shape, tolerance: float) -> np.ndarray:
     )
     lams = np.ascontiguousarray(wavelength.reshape(-1))
     out = np.empty((geometry.m, lams.size))
+    diffuse = np.array(np.broadcast_to(np.asarray(diffuse, dtype=float), lams.shape))
     args = (geometry.cos_i, geometry.cos_o, geometry.cos_d, geometry.cos_r, v_z, v_xy2, lobe)
     args = (*args, _inv_sqrt_cos(geometry))
-    he_offset_loop(*(np.ascontiguousarray(x, dtype=float) for x in args), lams, values, out)
+    args = (*(np.ascontiguousarray(x, dtype=float) for x in args), lams, diffuse, values)
+    he_offset_loop(*args, out)
     return out if wavelength.ndim else out[:, 0]
 
 

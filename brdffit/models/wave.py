@@ -146,22 +146,9 @@ def he_components(geometry: Geometry, shape, tolerance: float = SERIES_TOLERANCE
 
 
 def _he_design(geometry: Geometry, shape) -> Design:
-    """``a_ud / pi`` as the column, spike and lobe as the offset; by the compiled loop
-    (:mod:`brdffit.kernels.loops_he`) when the kernels are on (at every size: the numpy
-    series costs about 3 ms an evaluation of a few hundred pairs, a 568-sample fit
-    1.15 s against 0.16 s compiled, which repays numba's 0.35-0.5 s load within one
-    fit) and the shape parameters are numbers (a batch of them goes to numpy)."""
-    from .. import kernels
-
-    scalar = all(np.ndim(v) == 0 for k, v in shape.items() if k != "wavelength")
-    if (
-        scalar
-        and np.ndim(shape["wavelength"]) <= 1
-        and kernels.wanted(geometry.m, 1, ("loops_he",))
-    ):
-        from ..kernels.loops_he import he_offset
-
-        return Design((INV_PI,), offset=he_offset(geometry, shape, SERIES_TOLERANCE))
+    """``a_ud / pi`` as the column, spike and lobe as the offset. With the kernels on,
+    :mod:`brdffit.kernels` binds the compiled loop in its place (``bind._He``,
+    :mod:`brdffit.kernels.loops_he`) at every size; this numpy form is the reference."""
     specular, directional = he_components(geometry, shape)
     return Design((INV_PI,), offset=specular + directional)
 

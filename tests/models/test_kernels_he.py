@@ -170,3 +170,36 @@ def test_he_takes_its_loop_below_min_pairs(monkeypatch):
         reference = HE.evaluate(wi, wo, HE.defaults())
     assert calls == [1]
     np.testing.assert_allclose(compiled, reference, rtol=1e-10, atol=1e-300)
+
+
+def test_he_is_bound_through_the_kernels_and_adds_a_ud_in_its_loop(monkeypatch):
+    """``he`` is one of kernels.COMPILED_MODELS (bound by kernels.bind as the others),
+    and its prepared evaluation is one pass of the loop: ``a_ud / pi`` per wavelength is
+    added there, bit for bit numpy's combination of the compiled design (before, the
+    loop returned the offset and numpy added the column in a second pass); with
+    ``a_ud`` per channel but one wavelength it combines the design's columns."""
+    from brdffit.kernels import loops_he
+    from brdffit.kernels.bind import CompiledDesign
+    from brdffit.models.base import combine
+
+    assert "he" in kernels.COMPILED_MODELS and isinstance(HE.design, CompiledDesign)
+    geometry = Geometry(*hemisphere_pairs(700, seed=13))
+    params = HE.check_params(
+        {**HE.defaults(), "a_ud": np.array([0.1, 0.0, 0.4]), "wavelength": [450.0, 550.0, 650.0]}
+    )
+    shape = {p.name: params[p.name] for p in HE.shape_params}
+    with kernels.use(True):
+        design = HE.design(geometry, shape)
+        combined = geometry.scatter(combine(design, HE.coefficient_values(params), geometry.m))
+        calls = []
+        original = loops_he.he_offset_loop
+        monkeypatch.setattr(loops_he, "he_offset_loop", lambda *a: calls.append(a) or original(*a))
+        fused = HE.evaluate_prepared(geometry, params)
+        assert len(calls) == 1 and np.all(calls[0][9] == np.array([0.1, 0.0, 0.4]) / math.pi)
+        np.testing.assert_array_equal(fused, combined)
+        one = HE.check_params({**params, "wavelength": 550.0})
+        assert HE.evaluate_prepared(geometry, one).shape == (combined.shape[0], 3)
+    with kernels.use(False):
+        expected = HE.evaluate_prepared(geometry, one)
+    with kernels.use(True):
+        assert _relative(HE.evaluate_prepared(geometry, one), expected) < AGREEMENT
