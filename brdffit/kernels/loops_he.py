@@ -35,6 +35,7 @@ import numba
 import numpy as np
 
 from ..data.geometry import Geometry
+from ..models import he_terms
 from ._compile import FLAGS, fast_exp, jit
 from .elementary import fast_log
 from .erfc import fast_erfc
@@ -143,12 +144,21 @@ def dd_series_loop(g, a, tolerance):
 BLOCK = 512
 
 
+#: ``ln(m!)`` for ``m < LOG_FACTORIALS.size``, the numpy series' own table
+#: (:func:`~brdffit.models.he_terms.log_factorial_table`): the series' first index is
+#: an integer, so its weight's ``lnGamma`` is read, not computed (libm's ``lgamma``,
+#: scalar, took 12 ns an element, and half the elements need it at the defaults).
+LOG_FACTORIALS = he_terms.log_factorial_table()
+
+
 @jit
 def _series_start(g, a, tolerance, m, p):
-    """Fill ``m`` (first index) and ``p`` (its Poisson weight, without ``1/m!`` when
-    ``m > 1``: see :func:`_series_block`) for the block; ``m = 0`` marks an element whose
-    series is negligible or 0. Vectorisable: :func:`dd_series_loop`'s window."""
+    """Fill ``m`` (first index) and ``p`` (its Poisson weight ``g^m exp(-g) / m!``; for
+    ``m`` beyond :data:`LOG_FACTORIALS`, its logarithm without ``ln(m!)``: see
+    :func:`_series_block`) for the block; ``m = 0`` marks an element whose series is
+    negligible or 0. Vectorisable: :func:`dd_series_loop`'s window."""
     log_two_tol = math.log(2.0 / tolerance)
+    last = LOG_FACTORIALS.shape[0] - 1
     for j in range(g.shape[0]):
         gj = max(g[j], 1e-300)
         small = gj < 1e-3  # 1 - exp(-g) by its series where exp(-g) would cancel
@@ -161,7 +171,10 @@ def _series_start(g, a, tolerance, m, p):
         reach = gj + log_bound / 3.0 + root
         lower = max(1.0, math.floor(gj - math.sqrt(2.0 * gj * log_bound)) + 1.0)
         mj = lower if gj > 4.0 else 1.0
-        p[j] = mj * log_g - gj
+        log_p = mj * log_g - gj
+        listed = mj <= last
+        weight = fast_exp(log_p - LOG_FACTORIALS[min(int(mj), last)])
+        p[j] = weight if listed else log_p
         keep = (a[j] < reach * log_two_tol) and (g[j] > 0.0)
         m[j] = mj if keep else 0.0
 
@@ -171,7 +184,8 @@ def _series_block(g, a, m, p, tolerance, out):
     """The series of the block's elements with ``m > 0``, in lockstep: each step adds
     one term to every element not yet stopped (a vectorisable loop); elements that
     have stopped keep their sum and leave the arrays when they are a quarter of them.
-    ``p`` holds ``m ln g - g`` on entry (``lnGamma(m + 1)`` is taken here, per element)."""
+    ``p`` holds the first weight on entry, or for ``m`` beyond :data:`LOG_FACTORIALS`
+    (rough surfaces, a few elements) ``m ln g - g``, whose ``lnGamma(m + 1)`` is taken here."""
     prefer_wide_vectors()
     n = 0
     idx = np.empty(g.shape[0], dtype=np.int64)
@@ -179,8 +193,10 @@ def _series_block(g, a, m, p, tolerance, out):
     for j in range(g.shape[0]):
         out[j] = 0.0
         if m[j] > 0.0:
-            log_p = p[j] - (math.lgamma(m[j] + 1.0) if m[j] > 1.0 else 0.0)
-            idx[n], gg[n], aa[n], mm[n], pp[n] = j, g[j], a[j], m[j], math.exp(log_p)
+            weight = p[j]
+            if m[j] >= LOG_FACTORIALS.shape[0]:
+                weight = math.exp(p[j] - math.lgamma(m[j] + 1.0))
+            idx[n], gg[n], aa[n], mm[n], pp[n] = j, g[j], a[j], m[j], weight
             n += 1
     half_tol = 0.5 * tolerance
     s, q, res = np.zeros(n), np.zeros(n), np.zeros(n)
