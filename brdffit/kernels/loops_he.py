@@ -23,8 +23,10 @@ window of every element and the series of all of them in lockstep (one term per
 element and step; elements that have stopped keep their sum and leave the arrays
 in bulk, as in the numpy model). :func:`dd_series_loop` is the same series for one
 element, scalar (tested against the numpy series, term counts included). Measured
-at the default parameters, 100,000 pairs, one wavelength: 0.10 us a pair against
-0.5 us for numpy (benchmarks/bench_he.py has the run).
+at the default parameters, 100,000 pairs, one wavelength: 86 ns a pair (35 of
+shadowing, ``K``, ``z0`` and Fresnel, 41 of the series) against 0.42 us for numpy
+(benchmarks/bench_he.py has the run). :mod:`brdffit.kernels.bind` binds it to the
+model as the other models' loops, and ``a_ud / pi`` is added in the same pass.
 """
 
 from __future__ import annotations
