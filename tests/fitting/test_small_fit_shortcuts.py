@@ -3,10 +3,13 @@
 A fit of a few hundred samples pays Python's overhead more than arithmetic; each cut
 of it is held here to the code it replaces: the metrics' sums of one block against
 the loop over blocks, ``1 / s`` of the scaled losses without a broadcast view, the
-per-channel weights' test without one, and the per-channel combination of a design.
+per-channel weights' test without one, the per-channel combination of a design,
+and the options' copies with changes without ``dataclasses.replace``.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -14,8 +17,10 @@ from helpers import calls_of
 from numpy.testing import assert_array_equal
 
 from brdffit import kernels
+from brdffit.errors import FitError
 from brdffit.fitting import losses, solve, sums
 from brdffit.fitting.losses import LOSSES, LossContext
+from brdffit.fitting.options import FitOptions
 from brdffit.models.base import Design, combine
 
 
@@ -116,3 +121,39 @@ def test_the_per_channel_combination_is_the_sum_of_its_terms(coefs):
     want = np.multiply.outer(column, c1) + (1.0 / np.pi) * c0
     assert got.shape == (m, n)
     assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("changes", [
+    {}, {"loss": "chi2"}, {"global_evals": 120, "local_evals": 200, "max_evals": 10**9},
+    {"free": ("eta",), "seed": 3, "local_algorithm": "LN_SBPLX"},
+])  # fmt: skip
+def test_the_options_with_changes_are_dataclasses_replace(changes):
+    opts = FitOptions(loss="l2", restarts=1, timeout=5.0, fixed={"kd": 0.1})
+    got, want = opts._with(**changes), dataclasses.replace(opts, **changes)
+    assert type(got) is FitOptions
+    assert got == want
+    assert list(vars(got)) == list(vars(want))  # the fields in their order
+    assert [getattr(got, f.name) for f in dataclasses.fields(got)] == [
+        getattr(want, f.name) for f in dataclasses.fields(want)
+    ]
+    assert got.record() == want.record()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        got.loss = "log"
+    with pytest.raises(TypeError, match="no field 'not_an_option'"):
+        opts._with(not_an_option=1)
+
+
+def test_the_record_is_every_record_field():
+    opts = FitOptions(loss="cbrt", seed=7, progress=print, uncertainty=True)
+    want = {f.name: getattr(opts, f.name) for f in dataclasses.fields(opts)
+            if f.metadata.get("record")}  # fmt: skip
+    want["weights"] = None
+    assert opts.record() == want
+    assert "progress" not in want and "uncertainty" not in want and "seed" in want
+
+
+def test_options_of_known_names_are_the_options_and_an_unknown_one_is_named():
+    assert FitOptions.of({"loss": "l2", "seed": 2}) == FitOptions(loss="l2", seed=2)
+    assert FitOptions.of({}) == FitOptions()
+    with pytest.raises(FitError, match=r"'sed' is not an option of fit.*did you mean seed"):
+        FitOptions.of({"loss": "l2", "sed": 2})
