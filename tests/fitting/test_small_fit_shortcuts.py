@@ -4,7 +4,8 @@ A fit of a few hundred samples pays Python's overhead more than arithmetic; each
 of it is held here to the code it replaces: the metrics' sums of one block against
 the loop over blocks, ``1 / s`` of the scaled losses without a broadcast view, the
 per-channel weights' test without one, the per-channel combination of a design,
-and the options' copies with changes without ``dataclasses.replace``.
+the options' copies with changes without ``dataclasses.replace``, and the runs
+of a few rows without a zero counted at once.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from numpy.testing import assert_array_equal
 
 from brdffit import kernels
 from brdffit.errors import FitError
-from brdffit.fitting import losses, solve, sums
+from brdffit.fitting import losses, runs, solve, sums
 from brdffit.fitting.losses import LOSSES, LossContext
 from brdffit.fitting.options import FitOptions
 from brdffit.models.base import Design, combine
@@ -157,3 +158,21 @@ def test_options_of_known_names_are_the_options_and_an_unknown_one_is_named():
     assert FitOptions.of({}) == FitOptions()
     with pytest.raises(FitError, match=r"'sed' is not an option of fit.*did you mean seed"):
         FitOptions.of({"loss": "l2", "sed": 2})
+
+
+@pytest.mark.parametrize("c", [1, 3, runs.VECTOR_ROWS - 1])
+@pytest.mark.parametrize("m", [1, 2, 600, runs.VECTOR_LENGTH])
+def test_the_runs_of_a_few_rows_at_once_are_those_row_by_row(monkeypatch, c, m):
+    rng = np.random.default_rng(c * m)
+    codes = rng.integers(1, 3, (c, m)).astype(np.int8)
+    codes[0, : m // 2] = 2  # a long run
+    want = runs.runs_by_row(codes)
+    by_row = calls_of(monkeypatch, runs, "runs_by_row")
+    got = runs.runs(codes)
+    assert by_row == []  # no zero: the rows' sums, not row by row
+    for a, b in zip(got, want):
+        assert a.dtype == b.dtype
+        assert_array_equal(a, b)
+    codes[-1, ::3] = 0  # an exact zero: row by row
+    assert_array_equal(runs.runs(codes)[2], runs._statistics([runs._count(r) for r in codes])[2])
+    assert by_row == [1]
