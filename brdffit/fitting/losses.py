@@ -195,7 +195,10 @@ def _divided_by(scale: Callable[[LossContext], np.ndarray]):
 def _inverse(s: np.ndarray, f) -> np.ndarray:
     """``1 / s`` in the shape of ``ones_like(f) / s``, without the array of ones (a
     MERL file's mixed loss forms this for 3.3 M values at every reweighting)."""
-    return np.broadcast_to(1.0 / s, np.broadcast_shapes(np.shape(f), np.shape(s)))
+    inverse, shape = 1.0 / s, np.broadcast_shapes(np.shape(f), np.shape(s))
+    if isinstance(inverse, np.ndarray) and inverse.shape == shape:
+        return inverse  # already that shape: a new array of its own (broadcast_to: 3 us)
+    return np.broadcast_to(inverse, shape)
 
 
 LOSSES: dict[str, Loss] = {

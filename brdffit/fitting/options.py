@@ -19,7 +19,8 @@ import difflib
 import inspect
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
+from functools import cache
 from typing import Any
 
 import nlopt
@@ -172,8 +173,7 @@ class FitOptions:
             raise FitError(
                 "local_algorithm is needed: the polish is what converges", "local_algorithm"
             )
-        return replace(
-            self,
+        return self._with(
             global_algorithm=_algorithm(
                 self.global_algorithm, "global_algorithm", ("GN_", "G_MLSL", "GD_")
             ),
@@ -192,22 +192,34 @@ class FitOptions:
         """The loss's default filled in: ``chi2`` when the data give sigma, else ``mixed``."""
         if self.loss is not None:
             return self
-        return replace(self, loss="chi2" if has_sigma else "mixed")
+        return self._with(loss="chi2" if has_sigma else "mixed")
 
     def with_budgets(self, dim: int) -> FitOptions:
         """The budgets' defaults filled in; they grow with the ``dim`` free shape
         parameters of the problem."""
-        return replace(
-            self,
+        return self._with(
             global_evals=self.global_evals or 60 + 60 * dim,
             local_evals=self.local_evals or 100 + 100 * dim,
             max_evals=self.max_evals or NO_CAP,
         )
 
+    def _with(self, **changes) -> FitOptions:
+        """``dataclasses.replace(self, **changes)`` without running ``__init__`` again (a
+        field's setting through a frozen ``__setattr__``: 4 us, against 1): the class has
+        no ``__post_init__`` and every field is an ``__init__`` one, so the same options."""
+        unknown = changes.keys() - self.__dataclass_fields__.keys()
+        if unknown:
+            raise TypeError(f"FitOptions has no field {sorted(unknown)[0]!r}")
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__, **changes)
+        return new
+
     @classmethod
     def of(cls, options: Mapping) -> FitOptions:
         """FitOptions from keyword arguments; an unknown name is a FitError naming it
         (and the closest option name)."""
+        if options.keys() <= cls.__dataclass_fields__.keys():
+            return cls(**options)  # every name an option (checked at once: 5 us less)
         names = [f.name for f in fields(cls)]
         for name in options:
             if name not in names:
@@ -239,9 +251,15 @@ class FitOptions:
     def record(self) -> dict:
         """The options a result keeps to reproduce the fit: every ``record`` field, and
         the weights as :func:`weights_summary`."""
-        out = {f.name: getattr(self, f.name) for f in fields(self) if f.metadata.get("record")}
+        out = {name: getattr(self, name) for name in _recorded(type(self))}
         out["weights"] = weights_summary(self.weights)
         return out
+
+
+@cache
+def _recorded(cls) -> tuple:
+    """The names of ``cls``'s ``record`` fields (once: ``fields`` takes 4 us a call)."""
+    return tuple(f.name for f in fields(cls) if f.metadata.get("record"))
 
 
 def weights_summary(weights) -> dict | None:

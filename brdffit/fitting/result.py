@@ -191,7 +191,7 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
     Multimodel Inference", Springer, sec. 2.2). Only differences between models
     on the same data mean anything.
     """
-    sums = loss_sums(pred, replace(ctx, y=y))
+    sums = loss_sums(pred, ctx if ctx.y is y else replace(ctx, y=y))
     n = np.size(y)
     rss = sums.pop("rss")
     out = {name: total if LOSSES[name].is_sum else total / n for name, total in sums.items()}

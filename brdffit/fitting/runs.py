@@ -128,7 +128,9 @@ def runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ``sd^2 = 2 n+ n- (2 n+ n- - n) / (n^2 (n - 1))`` (Wald and Wolfowitz 1940,
     Ann. Math. Statist. 11, 147): large when residuals of one sign cluster. Signs,
     not values: one large residual cannot decide it, and unequal variances do not
-    matter. Many short rows (:data:`VECTOR_ROWS`, :data:`VECTOR_LENGTH`) are counted
+    matter. Fewer short rows without a zero are counted by two sums along the rows
+    (a fit's 3 rows of 600 signs: 12 -> 8 us). Many short rows (:data:`VECTOR_ROWS`,
+    :data:`VECTOR_LENGTH`) are counted
     together, those without a zero by three reductions over every row, and their
     statistics formed at once (a 31-band fit's 31 rows of 1,439 signs: 120 -> 60 us);
     others as :func:`runs_by_row` does (numpy's reductions along rows take 0.7 ns a
@@ -136,6 +138,10 @@ def runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     same integers and operations either way, so the same values.
     """
     c, m = codes.shape
+    if c < VECTOR_ROWS and 0 < m <= VECTOR_LENGTH and codes.all():  # few short rows, no 0:
+        n1 = (codes == 2).sum(axis=1).tolist()  # _count's integers, 2 us a row less
+        changes = (codes[:, 1:] != codes[:, :-1]).sum(axis=1).tolist()
+        return _statistics([(m, a, 1 + b) for a, b in zip(n1, changes)])
     if c < VECTOR_ROWS or m > VECTOR_LENGTH:
         return runs_by_row(codes)
     whole = codes.min(axis=1) > 0 if m else np.zeros(c, dtype=bool)

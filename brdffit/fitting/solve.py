@@ -192,10 +192,10 @@ def compact_weights(w: np.ndarray, z: np.ndarray):
 def _same_in_every_channel(w: np.ndarray) -> bool:
     """Whether every row of ``w`` (M, C) holds one value; the first rows are compared
     first (weights that differ by channel, as the log loss's, differ there at once)."""
-    head = w[:64]
-    if not np.array_equal(head, np.broadcast_to(head[:, :1], head.shape)):
+    head = w[:64]  # (a == a[:, :1]).all() is np.array_equal of the broadcast, 4 us less
+    if not (head == head[:, :1]).all():
         return False
-    return np.array_equal(w, np.broadcast_to(w[:, :1], w.shape))
+    return bool((w == w[:, :1]).all())
 
 
 def as_2d(a):
