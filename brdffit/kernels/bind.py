@@ -96,8 +96,9 @@ class _He:
 
     minimum = 1
     by_channel = True
-    #: :meth:`evaluate` needs no other module for coefficients per channel.
-    channel_modules = ("loops_he",)
+    #: Its loops' module, and the only one :meth:`evaluate` needs for coefficients per
+    #: channel.
+    modules = channel_modules = ("loops_he",)
 
     @staticmethod
     def takes(shape: Mapping) -> bool:
@@ -203,10 +204,8 @@ def _modules(name: str) -> tuple:
     spec = SPECS[name]
     if isinstance(spec, _Lobe):
         return (spec.loops,)
-    if hasattr(spec, "modules"):  # a renderer-native form with a table of its own
+    if hasattr(spec, "modules"):  # a form with loops of its own (a renderer's table, he)
         return spec.modules
-    if isinstance(spec, _He):
-        return ("loops_he",)
     return ("loops_renderers",) if name in _RENDERER_SPECS else ("loops",)
 
 
