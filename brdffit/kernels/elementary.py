@@ -233,20 +233,27 @@ def fast_log1p(x):
 
 
 @numba.njit(inline="always", fastmath=FLAGS)
-def fast_exp_short(x):
-    """``exp(x)`` for ``x <= 709`` as :func:`~brdffit.kernels._compile.fast_exp` (0 below
-    ``EXP_MIN``). ``t = y / ln 2 + _ROUND`` (``_ROUND = 1.5 * 2^52``) is ``_ROUND + k``
-    exactly, ``k = round(y / ln 2)``, ``|k| < 2^51``, and its low bits are ``k``: the bits
-    of ``2^k`` are ``(bits(t) + 1023) << 52`` (the shift drops the bits of ``_ROUND``)."""
+def _exp_by(x, polynomial):
+    """``exp(x)`` for ``x <= 709`` with ``2^r``'s ``polynomial`` (0 below ``EXP_MIN``).
+    ``t = y / ln 2 + _ROUND`` (``_ROUND = 1.5 * 2^52``) is ``_ROUND + k`` exactly, ``k =
+    round(y / ln 2)``, ``|k| < 2^51``, and its low bits are ``k``: the bits of ``2^k``
+    are ``(bits(t) + 1023) << 52`` (the shift drops the bits of ``_ROUND``)."""
     y = min(max(x, EXP_MIN), _EXP_MAX)
     t = y * _LOG2E + _ROUND
     k = t - _ROUND
     r = y - k * _LN2_HI - k * _LN2_LO
-    p = EXP_POLYNOMIAL[0]
-    for j in range(1, len(EXP_POLYNOMIAL)):
-        p = p * r + EXP_POLYNOMIAL[j]
+    p = polynomial[0]
+    for j in range(1, len(polynomial)):
+        p = p * r + polynomial[j]
     scaled = p * _float((_bits(t) + 1023) << 52)
     return scaled if x >= EXP_MIN else 0.0
+
+
+@numba.njit(inline="always", fastmath=FLAGS)
+def fast_exp_short(x):
+    """``exp(x)`` for ``x <= 709`` as :func:`~brdffit.kernels._compile.fast_exp` (0 below
+    ``EXP_MIN``), by :data:`EXP_POLYNOMIAL` (:func:`_exp_by`)."""
+    return _exp_by(x, EXP_POLYNOMIAL)
 
 
 @numba.njit(inline="always", fastmath=FLAGS)
@@ -254,15 +261,7 @@ def fast_exp_7(x):
     """:func:`fast_exp_short` with :data:`EXP_POLYNOMIAL_7`: four multiply-adds fewer,
     within :data:`EXP7_ERROR` relative. For the anisotropic Beckmann loop, whose float32
     inputs already cost it up to 1.2e-7 (its exponent error adds 5e-11 to that)."""
-    y = min(max(x, EXP_MIN), _EXP_MAX)
-    t = y * _LOG2E + _ROUND
-    k = t - _ROUND
-    r = y - k * _LN2_HI - k * _LN2_LO
-    p = EXP_POLYNOMIAL_7[0]
-    for j in range(1, len(EXP_POLYNOMIAL_7)):
-        p = p * r + EXP_POLYNOMIAL_7[j]
-    scaled = p * _float((_bits(t) + 1023) << 52)
-    return scaled if x >= EXP_MIN else 0.0
+    return _exp_by(x, EXP_POLYNOMIAL_7)
 
 
 _MANTISSA = (1 << 52) - 1
