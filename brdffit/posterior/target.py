@@ -70,7 +70,15 @@ import numpy as np
 from ..errors import FitError
 from ..fitting.channels import abs_max_by_channel
 from ..fitting.losses import LossContext
-from .design import batched_design, batches_agree, dense, looped_design
+from .design import (
+    batched_design,
+    batches_agree,
+    compiled_lobe,
+    lobe_design,
+    lobe_runs,
+    looped_design,
+)
+from .gram import weighted_sums
 from .truncnorm import LOG_2PI, draw_box_gaussian, log_mass
 
 __all__ = ["Target", "NOISE_MODELS"]
@@ -116,6 +124,7 @@ class Target:
         self.rows, self.bounds = problem.coef_constraints or (None, None)
         self._set_data(weights)
         self.batched = self._check_batched()
+        self.lobe = compiled_lobe(problem) if self.batched else None
         self.estimates_noise = noise != "given"
         lower, upper = list(problem.lower), list(problem.upper)
         if self.estimates_noise:
@@ -158,6 +167,7 @@ class Target:
         self.yy = np.einsum("mc,mc->c", self.wy, self.y)
         self.w_sum = self.w.sum(axis=0)
         self.w_t, self.wy_t = np.ascontiguousarray(self.w.T), np.ascontiguousarray(self.wy.T)
+        self.y_t = np.ascontiguousarray(self.y.T)
         # Below the horizon f = 0: a constant residual sum of squares per channel.
         self.rss_invalid = np.einsum("mc,mc->c", w[~valid], y[~valid] ** 2)
         self.n_obs = (w > 0).sum(axis=0).astype(float)
@@ -199,6 +209,8 @@ class Target:
         return batches_agree(self.problem, self.shape_params, shapes)
 
     def designs(self, shapes: np.ndarray):
+        if self.lobe is not None and lobe_runs(self.problem, self.lobe):
+            return lobe_design(self.problem, self.lobe, self.shape_params, shapes)
         if self.batched:
             return batched_design(self.problem, self.shape_params, shapes)
         return looped_design(self.problem, self.shape_params, shapes)
@@ -209,21 +221,8 @@ class Target:
         coefficients (W, C, K), the residual sums of squares (W, C), and a mask
         of walkers whose design is not finite."""
         cols, offset = self.designs(shapes)
-        w_count, c, k = len(shapes), self.y.shape[1], self.n_coefficients
-        m = self.y.shape[0]
-        if offset is None:
-            wr = None
-            yy = np.broadcast_to(self.yy, (w_count, c))
-        else:
-            resid = self.y - dense(offset, w_count, m, c)
-            wr = self.w * resid
-            yy = np.einsum("wmc,wmc->wc", wr, resid)
-        gram = np.empty((w_count, c, k, k))
-        rhs = np.empty((w_count, c, k))
-        for i in range(k):
-            rhs[:, :, i] = self._cross(cols[i], wr, w_count, m)
-            for j in range(i, k):
-                gram[:, :, i, j] = gram[:, :, j, i] = self._gram_entry(cols[i], cols[j])
+        k = self.n_coefficients
+        gram, rhs, yy = weighted_sums(self, cols, offset, len(shapes))
         if k == 0:
             rss = np.maximum(yy, 0.0)
             return gram, gram.copy(), rhs, rss, ~np.isfinite(rss).all(axis=1)
@@ -235,40 +234,6 @@ class Target:
         beta = np.einsum("wckl,wcl->wck", inv, rhs)
         rss = np.maximum(yy - np.einsum("wck,wck->wc", rhs, beta), 0.0)
         return gram, inv, beta, rss, bad
-
-    def _gram_entry(self, u, v):
-        """``sum_m w_mc u_m v_m`` for two columns, (W, C) or (C,); constants factor out."""
-        if np.ndim(u) == 0 and np.ndim(v) == 0:
-            return u * v * self.w_sum
-        if np.ndim(u) == 0 or np.ndim(v) == 0:
-            scalar, col = (u, v) if np.ndim(u) == 0 else (v, u)
-            return scalar * self._weighted(col, self.w_t)
-        return self._weighted(u * v, self.w_t)
-
-    def _cross(self, u, wr, w_count: int, m: int):
-        """``sum_m u_m r_mc`` with ``r = w y`` (``wr`` None) or the weighted residuals
-        ``wr`` (W, M, C) left after an offset."""
-        if wr is None:
-            return u * self.wy_t.sum(axis=1) if np.ndim(u) == 0 else self._weighted(u, self.wy_t)
-        if np.ndim(u) == 0:
-            return u * wr.sum(axis=1)
-        if np.ndim(u) == 3:
-            return np.einsum("wmc,wmc->wc", u, wr)
-        u = np.broadcast_to(u, (w_count, m))
-        return np.matmul(u[:, None, :], wr)[:, 0, :]
-
-    @staticmethod
-    def _weighted(col, weights_t):
-        """``sum_m col_m w_mc`` (W, C) for ``weights_t`` = ``w`` transposed, (C, M) contiguous.
-
-        One contiguous dot product per channel with einsum, not a matrix product:
-        OpenBLAS threads (W, M) x (M, C) products, and on a busy machine its threads
-        waiting for a core made them ten times slower and erratic (measured at
-        W = 32, M = 10^4, C = 3: 5.7 ms median against 0.7 ms for this, which
-        never exceeded 0.9 ms)."""
-        if np.ndim(col) == 3:
-            return np.einsum("wmc,cm->wc", col, weights_t)
-        return np.stack([np.einsum("...m,m->...", col, wc) for wc in weights_t], axis=-1)
 
     # ------------------------------------------------------------ log-density
     def log_prob(self, theta) -> np.ndarray:

@@ -1,0 +1,120 @@
+"""The posterior sampler's weighted sums, compiled (:mod:`brdffit.posterior.target`).
+
+For every walker ``a`` and channel ``c`` the marginal likelihood needs the weighted
+Gram matrix ``G = A^T W_c A`` of the design's columns, the right-hand side ``A^T W_c
+r_c`` and ``r_c^T W_c r_c``, with ``r = y - offset``. numpy forms each entry from a
+(W, M) product of two columns and a contraction per channel (at 32 walkers, 10,000
+samples and one channel, 0.8 ms a batch, two thirds of it temporaries and calls);
+:func:`weighted_gram` reads the columns in place and sums each entry in one
+vectorised pass, no temporary. Sums in another order than numpy's: they differ by
+rounding (the tests hold them to the numpy formulas' to 1e-12 relative).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+__all__ = ["weighted_gram"]
+
+#: Reassociation (vectorised sums) but no assumption of finite values: a design that
+#: is not finite must give a sum that is not, which marks its walker (``bad``).
+FLAGS = {"reassoc", "contract", "nsz"}
+
+
+@numba.njit(inline="always", fastmath=FLAGS, error_model="numpy")
+def _sum1(u):
+    s = 0.0
+    for t in range(u.shape[0]):
+        s += u[t]
+    return s
+
+
+@numba.njit(inline="always", fastmath=FLAGS, error_model="numpy")
+def _sum2(u, v):
+    s = 0.0
+    for t in range(u.shape[0]):
+        s += u[t] * v[t]
+    return s
+
+
+@numba.njit(inline="always", fastmath=FLAGS, error_model="numpy")
+def _sum3(u, v, z):
+    s = 0.0
+    for t in range(u.shape[0]):
+        s += u[t] * v[t] * z[t]
+    return s
+
+
+@numba.njit(inline="always", fastmath=FLAGS, error_model="numpy")
+def _one_column(w, r_w, x):
+    """``sum w x``, ``sum w x^2`` and ``sum r_w x`` in one pass over the column ``x``."""
+    s_x = s_xx = s_rx = 0.0
+    for t in range(x.shape[0]):
+        wx = w[t] * x[t]
+        s_x += wx
+        s_xx += wx * x[t]
+        s_rx += r_w[t] * x[t]
+    return s_x, s_xx, s_rx
+
+
+@numba.njit(inline="always", fastmath=FLAGS, error_model="numpy")
+def _residual(w, y, o, wr):
+    """``wr = w (y - o)``, and ``sum w (y - o)^2``."""
+    total = 0.0
+    for t in range(w.shape[0]):
+        r = y[t] - o[t]
+        wr[t] = w[t] * r
+        total += wr[t] * r
+    return total
+
+
+@numba.njit(inline="always", fastmath=FLAGS, error_model="numpy")
+def _entry(w, cols, const, index, a, i, j, sums):
+    """``sum_m w_m x_i x_j`` for columns ``i`` and ``j`` of walker ``a``; ``sums`` those
+    of :func:`_one_column` when there is one column that is not constant, and the sum of
+    the weights."""
+    ci, cj = index[i], index[j]
+    if ci < 0 and cj < 0:
+        return const[i] * const[j] * sums[3]
+    if ci < 0 or cj < 0:
+        scale, col = (const[i], cj) if ci < 0 else (const[j], ci)
+        return scale * (sums[0] if cols.shape[0] == 1 else _sum2(w, cols[col, a]))
+    return sums[1] if cols.shape[0] == 1 else _sum3(w, cols[ci, a], cols[cj, a])
+
+
+@numba.njit(cache=True, fastmath=FLAGS, error_model="numpy")
+def weighted_gram(cols, const, index, w_t, wy_t, y_t, off, gram, rhs, yy):
+    """Write ``gram`` (W, C, K, K), ``rhs`` (W, C, K) and, with an offset, ``yy`` (W, C).
+
+    Column ``i`` of walker ``a`` is ``cols[index[i], a]`` (M,) or, where ``index[i]``
+    is negative, the constant ``const[i]``. ``w_t`` and ``wy_t`` (C, M) are the
+    weights and the weighted data by channel, ``y_t`` (C, M) the data; ``off`` (W, M)
+    the offset of each walker, or (0, M) without one: then ``rhs`` sums ``wy`` and
+    ``yy`` is left as it is (the data's own, the same for every walker). With one
+    column that is not constant (a lobe beside ``1/pi``), its three sums take one pass."""
+    walkers, channels, k = rhs.shape
+    wr = np.empty(w_t.shape[1])
+    sums = np.zeros(4)  # sum w x, sum w x^2, sum r x (one column), sum w
+    for c in range(channels):
+        w = w_t[c]
+        sums[3] = _sum1(w)
+        wy_sum = _sum1(wy_t[c])
+        for a in range(walkers):
+            r_w, r_sum = wy_t[c], wy_sum
+            if off.shape[0] > 0:
+                yy[a, c] = _residual(w, y_t[c], off[a], wr)
+                r_w, r_sum = wr, _sum1(wr)
+            if cols.shape[0] == 1:
+                sums[0], sums[1], sums[2] = _one_column(w, r_w, cols[0, a])
+            for i in range(k):
+                if index[i] < 0:
+                    rhs[a, c, i] = const[i] * r_sum
+                else:
+                    one = cols.shape[0] == 1
+                    rhs[a, c, i] = sums[2] if one else _sum2(r_w, cols[index[i], a])
+                for j in range(i, k):
+                    value = _entry(w, cols, const, index, a, i, j, sums)
+                    gram[a, c, i, j] = value
+                    gram[a, c, j, i] = value
+    return gram

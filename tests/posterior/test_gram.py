@@ -1,0 +1,81 @@
+"""The weighted sums of the posterior's designs (brdffit.posterior.gram): the compiled
+pass and the numpy contractions against a dense reference written out here."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from brdffit import kernels
+from brdffit.posterior.gram import weighted_sums
+
+W, M = 5, 700
+
+
+def fake_target(channels: int, rng):
+    """What weighted_sums reads of a Target: the data and weights by sample and channel."""
+
+    class Data:
+        pass
+
+    t = Data()
+    t.y = rng.normal(1.0, 0.5, (M, channels))
+    t.w = rng.uniform(0.0, 2.0, (M, channels))
+    t.w[::7] = 0.0
+    t.wy = t.w * t.y
+    t.yy = (t.wy * t.y).sum(axis=0)
+    t.w_sum = t.w.sum(axis=0)
+    t.w_t, t.wy_t, t.y_t = (np.ascontiguousarray(a.T) for a in (t.w, t.wy, t.y))
+    return t
+
+
+def reference(t, cols, offset):
+    """Dense (W, M, K) design and residuals, each sum written as its definition."""
+    dense = [np.broadcast_to(np.asarray(c, dtype=float), (W, M)) for c in cols]
+    a = np.stack(dense, axis=-1) if cols else np.zeros((W, M, 0))
+    off = np.zeros((W, M)) if offset is None else np.broadcast_to(offset, (W, M))
+    r = t.y[None] - off[..., None]  # (W, M, C)
+    gram = np.einsum("mc,wmk,wml->wckl", t.w, a, a)
+    rhs = np.einsum("mc,wmc,wmk->wck", t.w, r, a)
+    yy = np.einsum("mc,wmc,wmc->wc", t.w, r, r)
+    return gram, rhs, yy
+
+
+CASES = {
+    "ward": lambda rng: ([1 / np.pi, rng.uniform(0, 3, (W, M))], None),
+    "offset": lambda rng: ([1 / np.pi, rng.uniform(0, 3, (W, M))], rng.uniform(0, 1, (W, M))),
+    "shared column": lambda rng: ([rng.uniform(0, 1, M), rng.uniform(0, 3, (W, M))], None),
+    "two lobes": lambda rng: ([0.3, rng.uniform(0, 3, (W, M)), rng.uniform(0, 2, (W, M))], None),
+    "constant offset": lambda rng: ([rng.uniform(0, 3, (W, M))], 0.25),
+    "no coefficient": lambda rng: ([], rng.uniform(0, 1, (W, M))),
+}
+
+
+@pytest.mark.parametrize("channels", [1, 3])
+@pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.parametrize("compiled", [False, True])
+def test_sums_match_their_definitions(case, channels, compiled):
+    if compiled and not kernels.available():
+        pytest.skip("numba is not installed")
+    rng = np.random.default_rng(len(case) + channels)
+    t = fake_target(channels, rng)
+    cols, offset = CASES[case](rng)
+    with kernels.use(compiled):
+        gram, rhs, yy = weighted_sums(t, cols, offset, W)
+    want = reference(t, cols, offset)
+    for got, expected in zip((gram, rhs, yy), want):
+        assert got.shape == expected.shape
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=0)
+
+
+def test_a_column_that_is_not_finite_gives_sums_that_are_not():
+    """The walker is then marked bad by the target: the compiled sums must not assume
+    finite values."""
+    rng = np.random.default_rng(3)
+    t = fake_target(2, rng)
+    lobe = rng.uniform(0, 3, (W, M))
+    lobe[1, 10], lobe[3, 20] = np.nan, np.inf
+    with kernels.use(True):
+        gram, rhs, _ = weighted_sums(t, [1 / np.pi, lobe], None, W)
+    finite = np.isfinite(gram).all(axis=(1, 2, 3)) & np.isfinite(rhs).all(axis=(1, 2))
+    assert finite.tolist() == [True, False, True, False, True]
