@@ -70,17 +70,43 @@ def _residual(w, y, o, wr):
 
 
 @numba.njit(inline="always", fastmath=FLAGS, error_model="numpy")
-def _entry(w, cols, const, index, a, i, j, sums):
-    """``sum_m w_m x_i x_j`` for columns ``i`` and ``j`` of walker ``a``; ``sums`` those
-    of :func:`_one_column` when there is one column that is not constant, and the sum of
-    the weights."""
+def _four_columns(w, r_w, x, a, out):
+    """:func:`_one_column` of walkers ``a`` to ``a + 3`` (rows of ``x``) in one pass:
+    ``w`` and ``r_w`` read once for the four (the pass is bound by the loads)."""
+    x0, x1, x2, x3 = x[a], x[a + 1], x[a + 2], x[a + 3]
+    s0 = s1 = s2 = s3 = q0 = q1 = q2 = q3 = p0 = p1 = p2 = p3 = 0.0
+    for t in range(w.shape[0]):
+        wt, rt = w[t], r_w[t]
+        v0, v1, v2, v3 = x0[t], x1[t], x2[t], x3[t]
+        u0, u1, u2, u3 = wt * v0, wt * v1, wt * v2, wt * v3
+        s0 += u0
+        s1 += u1
+        s2 += u2
+        s3 += u3
+        q0 += u0 * v0
+        q1 += u1 * v1
+        q2 += u2 * v2
+        q3 += u3 * v3
+        p0 += rt * v0
+        p1 += rt * v1
+        p2 += rt * v2
+        p3 += rt * v3
+    out[a, 0], out[a + 1, 0], out[a + 2, 0], out[a + 3, 0] = s0, s1, s2, s3
+    out[a, 1], out[a + 1, 1], out[a + 2, 1], out[a + 3, 1] = q0, q1, q2, q3
+    out[a, 2], out[a + 1, 2], out[a + 2, 2], out[a + 3, 2] = p0, p1, p2, p3
+
+
+@numba.njit(inline="always", fastmath=FLAGS, error_model="numpy")
+def _entry(w, cols, const, index, a, i, j, one, w_sum):
+    """``sum_m w_m x_i x_j`` for columns ``i`` and ``j`` of walker ``a``; ``one`` (W, 3)
+    the sums of :func:`_one_column` when there is one column that is not constant."""
     ci, cj = index[i], index[j]
     if ci < 0 and cj < 0:
-        return const[i] * const[j] * sums[3]
+        return const[i] * const[j] * w_sum
     if ci < 0 or cj < 0:
         scale, col = (const[i], cj) if ci < 0 else (const[j], ci)
-        return scale * (sums[0] if cols.shape[0] == 1 else _sum2(w, cols[col, a]))
-    return sums[1] if cols.shape[0] == 1 else _sum3(w, cols[ci, a], cols[cj, a])
+        return scale * (one[a, 0] if cols.shape[0] == 1 else _sum2(w, cols[col, a]))
+    return one[a, 1] if cols.shape[0] == 1 else _sum3(w, cols[ci, a], cols[cj, a])
 
 
 @numba.njit(cache=True, fastmath=FLAGS, error_model="numpy")
@@ -92,29 +118,32 @@ def weighted_gram(cols, const, index, w_t, wy_t, y_t, off, gram, rhs, yy):
     weights and the weighted data by channel, ``y_t`` (C, M) the data; ``off`` (W, M)
     the offset of each walker, or (0, M) without one: then ``rhs`` sums ``wy`` and
     ``yy`` is left as it is (the data's own, the same for every walker). With one
-    column that is not constant (a lobe beside ``1/pi``), its three sums take one pass."""
+    column that is not constant (a lobe beside ``1/pi``) and no offset, its three sums
+    take one pass for four walkers at a time."""
     walkers, channels, k = rhs.shape
     wr = np.empty(w_t.shape[1])
-    sums = np.zeros(4)  # sum w x, sum w x^2, sum r x (one column), sum w
+    one = np.zeros((walkers, 3))  # sum w x, sum w x^2, sum r x of the one column
+    single, blocked = cols.shape[0] == 1, cols.shape[0] == 1 and off.shape[0] == 0
     for c in range(channels):
         w = w_t[c]
-        sums[3] = _sum1(w)
-        wy_sum = _sum1(wy_t[c])
+        w_sum, wy_sum = _sum1(w), _sum1(wy_t[c])
+        if blocked:
+            for a in range(0, walkers - walkers % 4, 4):
+                _four_columns(w, wy_t[c], cols[0], a, one)
         for a in range(walkers):
             r_w, r_sum = wy_t[c], wy_sum
             if off.shape[0] > 0:
                 yy[a, c] = _residual(w, y_t[c], off[a], wr)
                 r_w, r_sum = wr, _sum1(wr)
-            if cols.shape[0] == 1:
-                sums[0], sums[1], sums[2] = _one_column(w, r_w, cols[0, a])
+            if single and (not blocked or a >= walkers - walkers % 4):
+                one[a, 0], one[a, 1], one[a, 2] = _one_column(w, r_w, cols[0, a])
             for i in range(k):
                 if index[i] < 0:
                     rhs[a, c, i] = const[i] * r_sum
                 else:
-                    one = cols.shape[0] == 1
-                    rhs[a, c, i] = sums[2] if one else _sum2(r_w, cols[index[i], a])
+                    rhs[a, c, i] = one[a, 2] if single else _sum2(r_w, cols[index[i], a])
                 for j in range(i, k):
-                    value = _entry(w, cols, const, index, a, i, j, sums)
+                    value = _entry(w, cols, const, index, a, i, j, one, w_sum)
                     gram[a, c, i, j] = value
                     gram[a, c, j, i] = value
     return gram
