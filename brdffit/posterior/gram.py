@@ -14,7 +14,10 @@ import numpy as np
 
 from .design import dense
 
-__all__ = ["weighted_sums"]
+__all__ = ["RIDGE", "statistics", "weighted_sums"]
+
+#: Relative ridge on the Gram matrices (see :mod:`brdffit.posterior.target`).
+RIDGE = 1e-12
 
 
 def weighted_sums(target, cols, offset, w_count: int):
@@ -24,6 +27,41 @@ def weighted_sums(target, cols, offset, w_count: int):
     if _compiled(cols, offset, m * c):
         return _compiled_sums(target, cols, offset, w_count)
     return _numpy_sums(target, cols, offset, w_count)
+
+
+def statistics(target, cols, offset, w_count: int):
+    """``log |det G|`` (W, C) of the Gram matrices with their ridge, their inverses
+    (W, C, K, K), the least-squares coefficients (W, C, K), the residual sums of
+    squares (W, C) and a mask (W,) of walkers whose design is not finite."""
+    m, c = target.y.shape
+    compiled = _compiled(cols, offset, m * c)
+    sums = _compiled_sums if compiled else _numpy_sums
+    gram, rhs, yy = sums(target, cols, offset, w_count)
+    k = len(cols)
+    if k == 0:
+        rss = np.maximum(yy, 0.0)
+        return np.zeros((w_count, c)), gram, rhs, rss, ~np.isfinite(rss).all(axis=1)
+    if not compiled:
+        return _numpy_solve(gram, rhs, yy, k)
+    from ..kernels.loops_posterior import solve_gram
+
+    inv, beta = np.empty_like(gram), np.empty_like(rhs)
+    rss, log_det = np.empty((w_count, c)), np.empty((w_count, c))
+    bad = np.empty(w_count, dtype=np.bool_)
+    yy = np.ascontiguousarray(yy)
+    solve_gram(gram, rhs, yy, RIDGE, inv, beta, rss, log_det, bad)
+    return log_det, inv, beta, rss, bad
+
+
+def _numpy_solve(gram, rhs, yy, k: int):
+    scale = np.maximum(np.abs(np.diagonal(gram, axis1=2, axis2=3)).max(axis=2), 1e-300)
+    gram += (RIDGE * scale)[..., None, None] * np.eye(k)
+    bad = ~(np.isfinite(gram).all(axis=(1, 2, 3)) & np.isfinite(rhs).all(axis=(1, 2)))
+    gram[bad], rhs[bad] = np.eye(k), 0.0
+    inv = np.linalg.inv(gram)
+    beta = np.einsum("wckl,wcl->wck", inv, rhs)
+    rss = np.maximum(yy - np.einsum("wck,wck->wc", rhs, beta), 0.0)
+    return np.linalg.slogdet(gram)[1], inv, beta, rss, bad
 
 
 def _compiled(cols, offset, values: int) -> bool:

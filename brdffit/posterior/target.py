@@ -78,7 +78,7 @@ from .design import (
     lobe_runs,
     looped_design,
 )
-from .gram import weighted_sums
+from .gram import statistics
 from .truncnorm import LOG_2PI, draw_box_gaussian, log_mass
 
 __all__ = ["Target", "NOISE_MODELS"]
@@ -86,8 +86,6 @@ __all__ = ["Target", "NOISE_MODELS"]
 NOISE_MODELS = ("given", "absolute", "relative", "mixed")
 #: Walkers per vectorised design call: (64, 10^4) arrays stay a few MB.
 BATCH = 64
-#: Relative ridge on the Gram matrices (see the module docstring).
-RIDGE = 1e-12
 #: Decades either side of the fit's residual scale that the noise prior spans.
 NOISE_DECADES = 3.0
 
@@ -217,23 +215,11 @@ class Target:
 
     # ------------------------------------------------------------ statistics
     def _stats(self, shapes: np.ndarray):
-        """Gram (W, C, K, K) with its ridge, its inverse, the least-squares
-        coefficients (W, C, K), the residual sums of squares (W, C), and a mask
-        of walkers whose design is not finite."""
+        """``log |det|`` of the Gram matrices (W, C) with their ridge, their inverses
+        (W, C, K, K), the least-squares coefficients (W, C, K), the residual sums of
+        squares (W, C), and a mask of walkers whose design is not finite."""
         cols, offset = self.designs(shapes)
-        k = self.n_coefficients
-        gram, rhs, yy = weighted_sums(self, cols, offset, len(shapes))
-        if k == 0:
-            rss = np.maximum(yy, 0.0)
-            return gram, gram.copy(), rhs, rss, ~np.isfinite(rss).all(axis=1)
-        scale = np.maximum(np.abs(np.diagonal(gram, axis1=2, axis2=3)).max(axis=2), 1e-300)
-        gram += (RIDGE * scale)[..., None, None] * np.eye(k)
-        bad = ~(np.isfinite(gram).all(axis=(1, 2, 3)) & np.isfinite(rhs).all(axis=(1, 2)))
-        gram[bad], rhs[bad] = np.eye(k), 0.0
-        inv = np.linalg.inv(gram)
-        beta = np.einsum("wckl,wcl->wck", inv, rhs)
-        rss = np.maximum(yy - np.einsum("wck,wck->wc", rhs, beta), 0.0)
-        return gram, inv, beta, rss, bad
+        return statistics(self, cols, offset, len(shapes))
 
     # ------------------------------------------------------------ log-density
     def log_prob(self, theta) -> np.ndarray:
@@ -251,9 +237,8 @@ class Target:
         return out
 
     def _log_prob_inside(self, theta: np.ndarray) -> np.ndarray:
-        gram, inv, beta, rss, bad = self._stats(self.shape_values(theta[:, : self.n_shape]))
+        logdet, inv, beta, rss, bad = self._stats(self.shape_values(theta[:, : self.n_shape]))
         lam = self.lam(theta)[:, None]
-        _, logdet = np.linalg.slogdet(gram)
         k = self.n_coefficients
         logp = -0.5 * lam * (rss + self.rss_invalid) + 0.5 * (self.n_obs - k) * np.log(lam)
         logp += -0.5 * logdet + 0.5 * k * LOG_2PI
