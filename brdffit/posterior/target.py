@@ -132,6 +132,9 @@ class Target:
         self.lower, self.upper = np.array(lower), np.array(upper)
         self.n_sampled = len(self.lower)
         self.theta_fit = np.append(x_fit, centre) if self.estimates_noise else np.array(x_fit)
+        #: A :class:`~brdffit.posterior.recall.Recall` while a run keeps its points'
+        #: statistics for the coefficient draws, else None.
+        self.recall = None
 
     # ------------------------------------------------------------------ data
     def _set_data(self, weights):
@@ -238,6 +241,8 @@ class Target:
 
     def _log_prob_inside(self, theta: np.ndarray) -> np.ndarray:
         logdet, inv, beta, rss, bad = self._stats(self.shape_values(theta[:, : self.n_shape]))
+        if self.recall is not None:
+            self.recall.add(theta, beta, inv)
         lam = self.lam(theta)[:, None]
         k = self.n_coefficients
         logp = -0.5 * lam * (rss + self.rss_invalid) + 0.5 * (self.n_obs - k) * np.log(lam)
@@ -260,12 +265,26 @@ class Target:
 
     # ---------------------------------------------------------- coefficients
     def draw_coefficients(self, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """One draw of the coefficients (S, C, K) given each row of ``theta``."""
+        """One draw of the coefficients (S, C, K) given each row of ``theta``; the
+        statistics of rows the run evaluated are taken from ``recall`` (a
+        :class:`~brdffit.posterior.recall.Recall`, or None), the others computed."""
         theta = np.atleast_2d(theta)
-        out = np.empty((len(theta), self.y.shape[1], self.n_coefficients))
+        c, k = self.y.shape[1], self.n_coefficients
+        out = np.empty((len(theta), c, k))
+        if self.recall is not None and len(theta):
+            found, betas, invs = self.recall.find(theta)
+        else:
+            found, betas, invs = np.zeros(len(theta), dtype=bool), None, None
         for start in range(0, len(theta), BATCH):
             part = slice(start, start + BATCH)
-            _, inv, beta, _, _ = self._stats(self.shape_values(theta[part, : self.n_shape]))
+            miss = np.flatnonzero(~found[part])
+            if len(miss) == len(found[part]):
+                _, inv, beta, _, _ = self._stats(self.shape_values(theta[part, : self.n_shape]))
+            else:
+                beta, inv = betas[part], invs[part]
+                if len(miss):
+                    shapes = self.shape_values(theta[part][miss, : self.n_shape])
+                    _, inv[miss], beta[miss], _, _ = self._stats(shapes)
             cov = inv / self.lam(theta[part])[:, None, None, None]
             out[part] = draw_box_gaussian(
                 beta, cov, self.coef_lower, self.coef_upper, rng, self.rows, self.bounds
