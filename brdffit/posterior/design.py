@@ -117,11 +117,15 @@ def compiled_lobe(problem):
 
 
 def lobe_runs(problem, lobe) -> bool:
-    """Whether the compiled lobe runs on the problem's geometry now (the kernels on,
-    the geometry large enough: what the model's own design decides)."""
+    """Whether the compiled lobe runs on the problem's geometry now: the kernels on
+    and, by default, from :data:`brdffit.kernels.MIN_PAIRS` values (pairs times
+    channels) on, the rule of the weighted sums (:mod:`brdffit.posterior.gram`): where
+    those load numba, the lobe's loop costs little more, and thousands of designs
+    repay it (a fit's own design counts pairs only)."""
     from .. import kernels
 
-    return kernels.wanted(problem.geometry.m, modules=problem.model.design.modules)
+    values = problem.geometry.m * problem.n_channels
+    return kernels.wanted(values, modules=problem.model.design.modules)
 
 
 def lobe_design(problem, lobe, shape_params, shapes: np.ndarray):
