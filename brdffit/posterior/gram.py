@@ -85,20 +85,29 @@ def _compiled_sums(target, cols, offset, w_count: int):
             const[i] = float(col)
         else:
             index[i] = len(arrays)
-            arrays.append(np.broadcast_to(np.asarray(col, dtype=float), (w_count, m)))
-    if len(arrays) == 1 and arrays[0].flags.c_contiguous:
+            arrays.append(_rows(col, w_count, m))
+    if len(arrays) == 1:
         stacked = arrays[0][None]  # the one column in place: no copy
     else:
-        stacked = np.ascontiguousarray(np.stack(arrays) if arrays else np.empty((0, w_count, m)))
+        stacked = np.stack(arrays) if arrays else np.empty((0, w_count, m))
     if offset is None:
         off = np.empty((0, m))
-        yy = np.array(np.broadcast_to(target.yy, (w_count, c)))
+        yy = np.array(np.broadcast_to(target.yy, (w_count, c)), order="C")
     else:
-        off = np.ascontiguousarray(np.broadcast_to(np.asarray(offset, dtype=float), (w_count, m)))
+        off = _rows(offset, w_count, m)
         yy = np.empty((w_count, c))
     gram, rhs = np.empty((w_count, c, k, k)), np.empty((w_count, c, k))
     weighted_gram(stacked, const, index, target.w_t, target.wy_t, target.y_t, off, gram, rhs, yy)
     return gram, rhs, yy
+
+
+def _rows(x, w_count: int, m: int) -> np.ndarray:
+    """``x`` as a writable C-contiguous (W, M) array: itself when it is one, else a copy
+    (numba compiles, and loads, a signature apart for a read-only or strided array)."""
+    x = np.asarray(x, dtype=float)
+    if x.shape == (w_count, m) and x.flags.c_contiguous and x.flags.writeable:
+        return x
+    return np.array(np.broadcast_to(x, (w_count, m)), order="C")
 
 
 def _numpy_sums(target, cols, offset, w_count: int):

@@ -113,3 +113,21 @@ def test_a_walker_that_is_not_finite_is_bad_in_both():
         assert bad.tolist() == [False, False, True, False, False]
         np.testing.assert_array_equal(inv[2], np.broadcast_to(np.eye(2), (3, 2, 2)))
         assert (beta[2] == 0).all() and (log_det[2] == 0).all()
+
+
+def test_every_case_calls_one_compiled_signature():
+    """Writable C-contiguous arrays only: numba compiles, and loads from its cache, a
+    signature apart for a read-only, strided or Fortran-ordered argument."""
+    if not kernels.available():
+        pytest.skip("numba is not installed")
+    from brdffit.kernels import loops_posterior
+
+    for case in sorted(CASES):
+        for channels in (1, 3):
+            rng = np.random.default_rng(channels)
+            t = fake_target(channels, rng)
+            cols, offset = CASES[case](rng)
+            with kernels.use(True):
+                statistics(t, cols, offset, W)
+    assert len(loops_posterior.weighted_gram.signatures) == 1
+    assert len(loops_posterior.solve_gram.signatures) == 1
