@@ -3,15 +3,32 @@ shape values, for :class:`~brdffit.posterior.target.Target`.
 
 One call of the model's design broadcasts over the batch when the model allows it
 (checked once against one-at-a-time calls, :func:`batches_agree`); otherwise the
-design is evaluated one walker at a time (:func:`looped_design`). Either way the
-columns of the fixed coefficients are folded into the offset (:func:`assemble`).
+design is evaluated one walker at a time (:func:`looped_design`). A model whose
+design is a compiled lobe ``kd/pi + ks lobe`` (:mod:`brdffit.kernels.bind`) has its
+lobe written by its loop straight into the rows of one (W, M) array
+(:func:`lobe_design`), without the per-walker mappings and the stacking of the
+batched call. Either way the columns of the fixed coefficients are folded into the
+offset (:func:`assemble`).
 """
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 
-__all__ = ["NotBatched", "assemble", "batched_design", "batches_agree", "dense", "looped_design"]
+from ..models.base import INV_PI
+
+__all__ = [
+    "NotBatched",
+    "assemble",
+    "batched_design",
+    "batches_agree",
+    "compiled_lobe",
+    "dense",
+    "lobe_design",
+    "looped_design",
+]
 
 
 class NotBatched(Exception):
@@ -84,6 +101,47 @@ def looped_design(problem, shape_params, shapes: np.ndarray):
         else stack([0.0 if o is None else o for o in offsets])
     )
     return assemble(problem, cols, offset)
+
+
+def compiled_lobe(problem):
+    """The compiled lobe of the problem's model (the ``_Lobe`` of
+    :mod:`brdffit.kernels.bind`: its loop, inputs and shape arguments), or None when
+    its design is not one."""
+    design = problem.model.design
+    lobe = getattr(design, "compiled", None)
+    if not all(hasattr(lobe, name) for name in ("loop", "loops", "prepare", "shape")):
+        return None
+    if getattr(design, "minimum", None) is not None:
+        return None
+    return lobe
+
+
+def lobe_runs(problem, lobe) -> bool:
+    """Whether the compiled lobe runs on the problem's geometry now: the kernels on
+    and, by default, from :data:`brdffit.kernels.MIN_PAIRS` values (pairs times
+    channels) on, the rule of the weighted sums (:mod:`brdffit.posterior.gram`): where
+    those load numba, the lobe's loop costs little more, and thousands of designs
+    repay it (a fit's own design counts pairs only)."""
+    from .. import kernels
+
+    values = problem.geometry.m * problem.n_channels
+    return kernels.wanted(values, modules=problem.model.design.modules)
+
+
+def lobe_design(problem, lobe, shape_params, shapes: np.ndarray):
+    """The free columns and the offset of a compiled lobe's design ``(1/pi, lobe)``
+    at every row of ``shapes``: the lobe of each walker written by its loop into a
+    row of one (W, M) array (what the batched call computes, the same values)."""
+    g = problem.geometry
+    loop = getattr(importlib.import_module(f"brdffit.kernels.{lobe.loops}"), lobe.loop)
+    inputs, shape_of, fixed = lobe.prepare(g), lobe.shape, _fixed_shape(problem)
+    names = [q.name for q in shape_params]
+    rows = np.empty((len(shapes), g.m))
+    for row, values in zip(rows, shapes.tolist()):
+        params = dict(zip(names, values))
+        params.update(fixed)
+        loop(*inputs, *shape_of(params), 1.0, 0.0, row)
+    return assemble(problem, [INV_PI, rows], None)
 
 
 def assemble(problem, cols, offset):

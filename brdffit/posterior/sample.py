@@ -55,6 +55,7 @@ from .chain import (
 )
 from .energy import restrict_to_energy
 from .options import _check_options
+from .recall import Recall
 from .result import NOISE_MEANING, Posterior
 from .target import NOISE_MODELS, Target
 
@@ -137,10 +138,13 @@ def _draws(fit_result, problem, target, walkers: int, run: tuple):
     conditional on the model after a misfit) and the fraction the restriction kept."""
     deadline, seed = run[2], run[3]
     rng = np.random.default_rng([seed, 7])
-    theta, chain, info = _shape_draws(target, walkers, rng, run)
-    theta, coefs, note, kept_fraction = _coefficient_draws(
-        fit_result, problem, target, theta, rng, deadline
-    )
+    try:
+        theta, chain, info = _shape_draws(target, walkers, rng, run)
+        theta, coefs, note, kept_fraction = _coefficient_draws(
+            fit_result, problem, target, theta, rng, deadline
+        )
+    finally:
+        target.recall = None
     common = _common(problem, target, theta, coefs)
     common["chain"] = chain
     if fit_result.misfit and fit_result.misfit.get("detected"):
@@ -186,6 +190,7 @@ def _shape_draws(target, walkers: int, rng, run: tuple):
         return np.zeros((IID_DRAWS, 0)), np.zeros((0, walkers, 0)), None
     steps, max_steps, deadline, seed, progress, t0 = run
     mode, cov = laplace(target, target.theta_fit)
+    target.recall = Recall()  # the points from here on: the chain's, for the draws
     start = start_walkers(target, mode, cov, walkers, rng)
     proposal = StudentIndependence(mode, cov)
     info = run_chain(target, start, proposal, steps, max_steps, deadline, seed, progress, t0)

@@ -70,7 +70,15 @@ import numpy as np
 from ..errors import FitError
 from ..fitting.channels import abs_max_by_channel
 from ..fitting.losses import LossContext
-from .design import batched_design, batches_agree, dense, looped_design
+from .design import (
+    batched_design,
+    batches_agree,
+    compiled_lobe,
+    lobe_design,
+    lobe_runs,
+    looped_design,
+)
+from .gram import statistics
 from .truncnorm import LOG_2PI, draw_box_gaussian, log_mass
 
 __all__ = ["Target", "NOISE_MODELS"]
@@ -78,8 +86,6 @@ __all__ = ["Target", "NOISE_MODELS"]
 NOISE_MODELS = ("given", "absolute", "relative", "mixed")
 #: Walkers per vectorised design call: (64, 10^4) arrays stay a few MB.
 BATCH = 64
-#: Relative ridge on the Gram matrices (see the module docstring).
-RIDGE = 1e-12
 #: Decades either side of the fit's residual scale that the noise prior spans.
 NOISE_DECADES = 3.0
 
@@ -116,6 +122,7 @@ class Target:
         self.rows, self.bounds = problem.coef_constraints or (None, None)
         self._set_data(weights)
         self.batched = self._check_batched()
+        self.lobe = compiled_lobe(problem) if self.batched else None
         self.estimates_noise = noise != "given"
         lower, upper = list(problem.lower), list(problem.upper)
         if self.estimates_noise:
@@ -125,6 +132,9 @@ class Target:
         self.lower, self.upper = np.array(lower), np.array(upper)
         self.n_sampled = len(self.lower)
         self.theta_fit = np.append(x_fit, centre) if self.estimates_noise else np.array(x_fit)
+        #: A :class:`~brdffit.posterior.recall.Recall` while a run keeps its points'
+        #: statistics for the coefficient draws, else None.
+        self.recall = None
 
     # ------------------------------------------------------------------ data
     def _set_data(self, weights):
@@ -158,6 +168,7 @@ class Target:
         self.yy = np.einsum("mc,mc->c", self.wy, self.y)
         self.w_sum = self.w.sum(axis=0)
         self.w_t, self.wy_t = np.ascontiguousarray(self.w.T), np.ascontiguousarray(self.wy.T)
+        self.y_t = np.ascontiguousarray(self.y.T)
         # Below the horizon f = 0: a constant residual sum of squares per channel.
         self.rss_invalid = np.einsum("mc,mc->c", w[~valid], y[~valid] ** 2)
         self.n_obs = (w > 0).sum(axis=0).astype(float)
@@ -199,76 +210,19 @@ class Target:
         return batches_agree(self.problem, self.shape_params, shapes)
 
     def designs(self, shapes: np.ndarray):
+        if self.lobe is not None and lobe_runs(self.problem, self.lobe):
+            return lobe_design(self.problem, self.lobe, self.shape_params, shapes)
         if self.batched:
             return batched_design(self.problem, self.shape_params, shapes)
         return looped_design(self.problem, self.shape_params, shapes)
 
     # ------------------------------------------------------------ statistics
     def _stats(self, shapes: np.ndarray):
-        """Gram (W, C, K, K) with its ridge, its inverse, the least-squares
-        coefficients (W, C, K), the residual sums of squares (W, C), and a mask
-        of walkers whose design is not finite."""
+        """``log |det|`` of the Gram matrices (W, C) with their ridge, their inverses
+        (W, C, K, K), the least-squares coefficients (W, C, K), the residual sums of
+        squares (W, C), and a mask of walkers whose design is not finite."""
         cols, offset = self.designs(shapes)
-        w_count, c, k = len(shapes), self.y.shape[1], self.n_coefficients
-        m = self.y.shape[0]
-        if offset is None:
-            wr = None
-            yy = np.broadcast_to(self.yy, (w_count, c))
-        else:
-            resid = self.y - dense(offset, w_count, m, c)
-            wr = self.w * resid
-            yy = np.einsum("wmc,wmc->wc", wr, resid)
-        gram = np.empty((w_count, c, k, k))
-        rhs = np.empty((w_count, c, k))
-        for i in range(k):
-            rhs[:, :, i] = self._cross(cols[i], wr, w_count, m)
-            for j in range(i, k):
-                gram[:, :, i, j] = gram[:, :, j, i] = self._gram_entry(cols[i], cols[j])
-        if k == 0:
-            rss = np.maximum(yy, 0.0)
-            return gram, gram.copy(), rhs, rss, ~np.isfinite(rss).all(axis=1)
-        scale = np.maximum(np.abs(np.diagonal(gram, axis1=2, axis2=3)).max(axis=2), 1e-300)
-        gram += (RIDGE * scale)[..., None, None] * np.eye(k)
-        bad = ~(np.isfinite(gram).all(axis=(1, 2, 3)) & np.isfinite(rhs).all(axis=(1, 2)))
-        gram[bad], rhs[bad] = np.eye(k), 0.0
-        inv = np.linalg.inv(gram)
-        beta = np.einsum("wckl,wcl->wck", inv, rhs)
-        rss = np.maximum(yy - np.einsum("wck,wck->wc", rhs, beta), 0.0)
-        return gram, inv, beta, rss, bad
-
-    def _gram_entry(self, u, v):
-        """``sum_m w_mc u_m v_m`` for two columns, (W, C) or (C,); constants factor out."""
-        if np.ndim(u) == 0 and np.ndim(v) == 0:
-            return u * v * self.w_sum
-        if np.ndim(u) == 0 or np.ndim(v) == 0:
-            scalar, col = (u, v) if np.ndim(u) == 0 else (v, u)
-            return scalar * self._weighted(col, self.w_t)
-        return self._weighted(u * v, self.w_t)
-
-    def _cross(self, u, wr, w_count: int, m: int):
-        """``sum_m u_m r_mc`` with ``r = w y`` (``wr`` None) or the weighted residuals
-        ``wr`` (W, M, C) left after an offset."""
-        if wr is None:
-            return u * self.wy_t.sum(axis=1) if np.ndim(u) == 0 else self._weighted(u, self.wy_t)
-        if np.ndim(u) == 0:
-            return u * wr.sum(axis=1)
-        if np.ndim(u) == 3:
-            return np.einsum("wmc,wmc->wc", u, wr)
-        u = np.broadcast_to(u, (w_count, m))
-        return np.matmul(u[:, None, :], wr)[:, 0, :]
-
-    @staticmethod
-    def _weighted(col, weights_t):
-        """``sum_m col_m w_mc`` (W, C) for ``weights_t`` = ``w`` transposed, (C, M) contiguous.
-
-        One contiguous dot product per channel with einsum, not a matrix product:
-        OpenBLAS threads (W, M) x (M, C) products, and on a busy machine its threads
-        waiting for a core made them ten times slower and erratic (measured at
-        W = 32, M = 10^4, C = 3: 5.7 ms median against 0.7 ms for this, which
-        never exceeded 0.9 ms)."""
-        if np.ndim(col) == 3:
-            return np.einsum("wmc,cm->wc", col, weights_t)
-        return np.stack([np.einsum("...m,m->...", col, wc) for wc in weights_t], axis=-1)
+        return statistics(self, cols, offset, len(shapes))
 
     # ------------------------------------------------------------ log-density
     def log_prob(self, theta) -> np.ndarray:
@@ -286,9 +240,10 @@ class Target:
         return out
 
     def _log_prob_inside(self, theta: np.ndarray) -> np.ndarray:
-        gram, inv, beta, rss, bad = self._stats(self.shape_values(theta[:, : self.n_shape]))
+        logdet, inv, beta, rss, bad = self._stats(self.shape_values(theta[:, : self.n_shape]))
+        if self.recall is not None:
+            self.recall.add(theta, beta, inv)
         lam = self.lam(theta)[:, None]
-        _, logdet = np.linalg.slogdet(gram)
         k = self.n_coefficients
         logp = -0.5 * lam * (rss + self.rss_invalid) + 0.5 * (self.n_obs - k) * np.log(lam)
         logp += -0.5 * logdet + 0.5 * k * LOG_2PI
@@ -310,12 +265,26 @@ class Target:
 
     # ---------------------------------------------------------- coefficients
     def draw_coefficients(self, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """One draw of the coefficients (S, C, K) given each row of ``theta``."""
+        """One draw of the coefficients (S, C, K) given each row of ``theta``; the
+        statistics of rows the run evaluated are taken from ``recall`` (a
+        :class:`~brdffit.posterior.recall.Recall`, or None), the others computed."""
         theta = np.atleast_2d(theta)
-        out = np.empty((len(theta), self.y.shape[1], self.n_coefficients))
+        c, k = self.y.shape[1], self.n_coefficients
+        out = np.empty((len(theta), c, k))
+        if self.recall is not None and len(theta):
+            found, betas, invs = self.recall.find(theta)
+        else:
+            found, betas, invs = np.zeros(len(theta), dtype=bool), None, None
         for start in range(0, len(theta), BATCH):
             part = slice(start, start + BATCH)
-            _, inv, beta, _, _ = self._stats(self.shape_values(theta[part, : self.n_shape]))
+            miss = np.flatnonzero(~found[part])
+            if len(miss) == len(found[part]):
+                _, inv, beta, _, _ = self._stats(self.shape_values(theta[part, : self.n_shape]))
+            else:
+                beta, inv = betas[part], invs[part]
+                if len(miss):
+                    shapes = self.shape_values(theta[part][miss, : self.n_shape])
+                    _, inv[miss], beta[miss], _, _ = self._stats(shapes)
             cov = inv / self.lam(theta[part])[:, None, None, None]
             out[part] = draw_box_gaussian(
                 beta, cov, self.coef_lower, self.coef_upper, rng, self.rows, self.bounds
