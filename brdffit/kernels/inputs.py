@@ -29,7 +29,6 @@ __all__ = [
     "GGX_ANISOTROPIC_F32_ERROR",
     "PRINCIPLED_ANISOTROPIC_F32_ERROR",
     "PRINCIPLED_F32_ERROR",
-    "GLTF_ANISOTROPIC_F32_ERROR",
     "ashikhmin_shirley_inputs",
     "beckmann_anisotropic_inputs",
     "beckmann_inputs",
@@ -200,10 +199,6 @@ def ggx_anisotropic_inputs(g: Geometry) -> tuple:
 #: (:func:`brdffit.kernels.inputs_renderers.conductor_anisotropic_inputs`: those of
 #: anisotropic GGX but Schlick's weight, 1.2e-7 to first order), stated and tested.
 CONDUCTOR_ANISOTROPIC_F32_ERROR = 1.3e-7
-#: The relative error that the float32 ``1 / (4 (N.L)(N.V))`` adds to glTF's anisotropic
-#: model (:func:`brdffit.kernels.inputs_renderers.gltf_anisotropic_inputs`: its
-#: rounding, ``2^-24``, in the specular term), stated and tested.
-GLTF_ANISOTROPIC_F32_ERROR = 7e-8
 
 
 #: The relative error that float32 inputs add to anisotropic Beckmann (see
@@ -246,7 +241,6 @@ F32_ERROR = {
     "mitsuba_principled": PRINCIPLED_F32_ERROR,
     "mitsuba_principled_anisotropic": PRINCIPLED_ANISOTROPIC_F32_ERROR,
     "mitsuba_roughconductor_anisotropic": CONDUCTOR_ANISOTROPIC_F32_ERROR,
-    "gltf_pbr_anisotropic": GLTF_ANISOTROPIC_F32_ERROR,
 }
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data.geometry import MIN_COSINE, Geometry
+from ..data.geometry import Geometry
 from .inputs import _axes32, _h_axes, inv_4_cos32, microfacet_inputs
 
 __all__ = [
@@ -34,33 +34,21 @@ def gltf_inputs(g: Geometry) -> tuple:
     return microfacet_inputs(g)
 
 
-def _slopes_of(w: np.ndarray) -> tuple:
-    """``x / z`` and ``y / z`` of directions ``w``, ``z`` clamped at the cosines'
-    :data:`~brdffit.data.geometry.MIN_COSINE` as the glTF model's ``Lambda`` does."""
-    z = np.maximum(w[:, 2], MIN_COSINE)
-    return w[:, 0] / z, w[:, 1] / z
-
-
 def gltf_anisotropic_inputs(g: Geometry) -> tuple:
-    """glTF with KHR_materials_anisotropy: ``x`` and ``y`` of H, the slopes ``x/z``,
-    ``y/z`` of L and of V (rotated in the loop; ``z`` clamped as the numpy model's
-    ``Lambda``), ``1 / (4 (N.L)(N.V))`` in float32 and ``(1 - V.H)^5``; cached. Eight
-    arrays: a ninth, H's ``z``, made the loop wait for memory (measured: 175 against
-    390 M pairs/s with the same arrays passed several times); the loop computes
-    ``H_z^2``.
+    """glTF with KHR_materials_anisotropy: the components of L and of V, contiguous
+    (``z``: :func:`plastic_z`'s arrays); cached. The loop forms ``|L + V|``, Schlick's
+    weight, ``D``'s ``q`` and the visibility from them (six arrays, 48 bytes a pair).
 
-    The loop is limited by memory: the factor in float32 (68 bytes a pair instead of
-    72) with eight lanes gave it 1.035x (2.63 -> 2.54 ns a pair, medians of 15 rounds
-    in one process). It scales the specular term only, by its rounding, within
-    :data:`~brdffit.kernels.inputs.GLTF_ANISOTROPIC_F32_ERROR` (tested). No other input
-    tolerates float32: the rotation and the widths' ratio amplify the rounding of H's
-    components and of the slopes by up to ``1 / alpha`` or the widths' ratio (far past
-    1e-6), and ``1 - w`` that of ``w`` near grazing."""
+    The loop before read eight arrays, 60 bytes a pair (H's ``x`` and ``y``, the slopes
+    of L and V, ``1 / (4 (N.L)(N.V))`` in float32 and the weight), and was limited by
+    memory at 2.4 ns a pair on the machine of ``benchmarks/``; this one takes 2.1
+    (benchmarks/README.md, "glTF anisotropic and Fournier (seventh stop)") and reads
+    float64 only."""
 
     def compute():
-        h = tuple(np.ascontiguousarray(g.half[:, j]) for j in range(2))
-        slopes = (*_slopes_of(g.wi), *_slopes_of(g.wo))
-        return (*h, *slopes, inv_4_cos32(g), microfacet_inputs(g)[4])
+        xy = tuple(np.ascontiguousarray(w[:, j]) for w in (g.wi, g.wo) for j in range(2))
+        z_i, z_o = plastic_z(g)
+        return (*xy[:2], z_i, *xy[2:], z_o)
 
     return g.cached("kernels.gltf_anisotropic", compute)
 

@@ -189,8 +189,7 @@ GLTF_PBR_ANISOTROPIC = Model(
     design=_gltf_aniso_design,
     doc="glTF 2.0 metallic-roughness with KHR_materials_anisotropy.\n\n"
     "As ``gltf_pbr`` with ``alpha_t = alpha + (1 - alpha) anisotropy_strength^2`` along "
-    "the tangent rotated by ``anisotropy_rotation`` and ``alpha_b = alpha`` across it.\n"
-    + FLOAT32.format(error="7e-8"),
+    "the tangent rotated by ``anisotropy_rotation`` and ``alpha_b = alpha`` across it.\n",
 )
 
 

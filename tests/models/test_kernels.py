@@ -113,10 +113,10 @@ def test_the_compiled_beckmann_loop_computes_the_rational_smith_masking():
 
 
 def test_one_newton_step_roots_are_within_their_bound():
-    """loops_microfacet.rsqrt (a float32 estimate, one Newton step in float64) within
-    SHORT_NEWTON_ERROR (2e-13) of 1/sqrt(x) over [RSQRT_MIN, RSQRT_MAX], compiled as
-    the loops are (eight lanes on AVX-512, whose float32 estimates are the least
-    accurate)."""
+    """loops_microfacet.rsqrt and sqrt_short (a float32 estimate, one Newton step in
+    float64) within SHORT_NEWTON_ERROR (2e-13) of 1/sqrt(x) and sqrt(x) over
+    [RSQRT_MIN, RSQRT_MAX], compiled as the loops are (eight lanes on AVX-512, whose
+    float32 estimates are the least accurate)."""
     import numba
 
     from brdffit.kernels._compile import FLAGS
@@ -125,14 +125,16 @@ def test_one_newton_step_roots_are_within_their_bound():
         RSQRT_MIN,
         SHORT_NEWTON_ERROR,
         rsqrt,
+        sqrt_short,
         wide,
     )
 
     @wide
     @numba.njit(fastmath=FLAGS, error_model="numpy")
-    def run(x, roots):
+    def run(x, roots, direct):
         for i in range(x.shape[0]):
             roots[i] = rsqrt(x[i])
+            direct[i] = sqrt_short(x[i])
 
     rng = np.random.default_rng(8)
     x = np.concatenate(
@@ -142,9 +144,10 @@ def test_one_newton_step_roots_are_within_their_bound():
             [1.0, 2.0, 1e20],
         ]
     )
-    roots = np.empty_like(x)
-    run(x, roots)
+    roots, direct = np.empty_like(x), np.empty_like(x)
+    run(x, roots, direct)
     assert np.abs(roots * np.sqrt(x) - 1.0).max() < SHORT_NEWTON_ERROR
+    assert np.abs(direct / np.sqrt(x) - 1.0).max() < SHORT_NEWTON_ERROR
 
 
 def test_wide_compiles_eight_lanes_and_sets_the_vectoriser_back():
