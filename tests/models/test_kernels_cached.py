@@ -3,9 +3,10 @@
 A first compiled fit in a process paid numba's refresh of its CPU target's
 registries (some seventy modules of numba and scipy.linalg, 0.3-0.4 s of CPU) on
 its first load of a cached loop; the loops now load without it. These tests hold
-that a fit loads its loops that way, that the fit is the same bit for bit as with
-numba's own load, that numba compiles new code in that process as before, and
-that a fit's calls give each loop one signature to load.
+that a fit loads its loops that way (a large table's fit too, whose loops must not
+link numba's array maths), that the fit is the same bit for bit as with numba's
+own load, that numba compiles new code in that process as before, and that a fit's
+calls give each loop one signature to load.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ import brdffit
 from brdffit import kernels
 {prelude}
 with kernels.use(True):
-    r = brdffit.fit(brdffit.read('data_synthetic/ward.csv'), 'ward', loss='l2')
+    r = brdffit.fit({data}, {model!r}, loss='l2')
 from numba.core.dispatcher import Dispatcher
 loaded = {{}}
 for name, module in list(sys.modules.items()):
@@ -87,9 +88,21 @@ print(json.dumps(['scipy.linalg' in sys.modules, entrypoints._already_initialize
 """
 
 
-def _run(prelude: str = "", after: str = "") -> list:
+#: The ward fit's data (a random geometry: the misfit test sorts it by numpy).
+WARD = "brdffit.read('data_synthetic/ward.csv')"
+#: A sixteenth of a MERL table, 68,514 pairs: above ``coarse_above``, so the fit takes
+#: the coarse-to-fine schedule (its compiled stratified draw), and a table's few
+#: distinct angles, so the misfit test sorts by counting (kernels/loops_runs.py).
+MERL_PART = (
+    "brdffit.synthesize('cook_torrance', {'kd': [0.12, 0.08, 0.05], 'ks': [0.9, 0.7, "
+    "0.5], 'm': 0.15, 'eta': 1.6}, geometry='merl', noise=0.01, seed=7).subset("
+    "np.arange(0, 1096216, 16))"
+)
+
+
+def _run(prelude: str = "", after: str = "", data: str = WARD, model: str = "ward") -> list:
     """The JSON lines the fit (and ``after``) print in a fresh interpreter."""
-    code = FIT.format(prelude=prelude) + after
+    code = FIT.format(prelude=prelude, data=data, model=model) + after
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=False
     )
@@ -119,6 +132,20 @@ def test_a_fit_loads_its_cached_loops_without_numbas_registries(light_and_numbas
     # and reads the distributions' metadata for numba extensions
     assert {cache for *_, cache in numbas["loaded"].values()} == {"FunctionCache"}
     assert "numba.np.arraymath" in numbas["heavy"] and numbas["extensions"] is True
+
+
+@NEEDS_LIGHT
+def test_a_table_fit_loads_its_loops_without_numbas_array_maths():
+    """The loops of a large table's fit (the schedule's draw, the misfit test's
+    counting sorts) load without ``numba.np.arraymath``, whose import imports
+    ``scipy.linalg`` (0.11 s of CPU of a first MERL fit): a loop calling ``np.max``
+    links numba's implementation, whose environment the cache load imports."""
+    _run(data=MERL_PART, model="ggx")  # the disk cache filled where it is empty
+    (light,) = _run(data=MERL_PART, model="ggx")
+    assert {"draw", "order_by_ranks", "sign_codes_every"} <= set(light["loaded"])
+    for name, (signatures, hits, misses, cache) in light["loaded"].items():
+        assert (hits, misses, cache) == (signatures, 0, "LightCache"), name
+    assert light["heavy"] == []
 
 
 @NEEDS_LIGHT
