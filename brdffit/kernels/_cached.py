@@ -18,6 +18,12 @@ functions once, 0.02 s). :class:`LightCache` loads the loops that way: it
 initialises the NRT and reads the cache, where numba's cache refreshes the whole
 context first.
 
+The cached machine code comes with the environments of the functions it holds
+(their module's globals and constants), which numba's rebuild makes by importing
+each function's module: those of numba's implementations linked in (``np.empty``:
+``numba.np.arrayobj``, 15-25 ms of CPU) are made without the import
+(:func:`_rebuild_environment`).
+
 Before that, a dispatcher's first call ran numba's ``entrypoints.init_all``, which
 reads the metadata of every installed distribution for numba extensions (0.02 s
 with 160 distributions, more in larger environments). Extensions, too, serve
@@ -38,10 +44,12 @@ version), so the loops then load as before, only slower.
 
 from __future__ import annotations
 
+import contextlib
 import re
+import sys
 
 import numba
-from numba.core import caching
+from numba.core import caching, environment
 from numba.core.dispatcher import Dispatcher
 
 __all__ = ["LightCache", "lighten"]
@@ -80,6 +88,8 @@ def _release(version: str) -> tuple:
 
 _USABLE = (
     _RTSYS is not None
+    and callable(getattr(environment, "_rebuild_env", None))
+    and hasattr(environment, "lookup_environment")
     and all(hasattr(caching.FunctionCache, n) for n in _NEEDED)
     and _release(numba.__version__) in TESTED_RELEASES
 )
@@ -94,9 +104,47 @@ class LightCache(caching.FunctionCache):
         numba's own method refreshes ``target_context`` first; here only the runtime
         the machine code links against is initialised (see the module's doc)."""
         _RTSYS.initialize(target_context)
-        with self._guard_against_spurious_io_errors():
+        with self._guard_against_spurious_io_errors(), _numbas_modules_unimported():
             return self._load_overload(sig, target_context)
         return None  # the guard swallowed an I/O error on Windows, as numba's own
+
+
+#: numba's own rebuild of a function's environment (see :func:`_rebuild_environment`).
+_REBUILD = getattr(environment, "_rebuild_env", None)
+
+
+def _rebuild_environment(modname, consts, env_name):
+    """A cached function's environment, as numba's ``_rebuild_env`` makes it, but
+    for a function of numba's own implementation modules not yet imported.
+
+    numba's rebuild imports the module the function was defined in, for the
+    environment's globals: a loop that allocates (``np.empty``) links numba's
+    implementation of it, and its environment imported ``numba.np.arrayobj``
+    (15-25 ms of CPU, with numba's strings and ``numpy.ma``). An environment's
+    globals serve only code compiled in object mode, which numba's implementations
+    never are (they are overloads and intrinsics, compiled in nopython mode); their
+    environments get the module's name as globals and the cached constants, and
+    numba's own rebuild stays for every other module (the loops' own)."""
+    if modname in sys.modules or not modname.startswith("numba."):
+        return _REBUILD(modname, consts, env_name)
+    env = environment.lookup_environment(env_name)
+    if env is None:
+        env = environment.Environment({"__name__": modname})
+        env.consts[:] = consts
+        env.env_name = env_name
+        environment.Environment._memo[env_name] = env
+    return env
+
+
+@contextlib.contextmanager
+def _numbas_modules_unimported():
+    """While a cached loop loads (numba's compiler lock held by its dispatcher):
+    its pickle rebuilds environments by :func:`_rebuild_environment`."""
+    environment._rebuild_env = _rebuild_environment
+    try:
+        yield
+    finally:
+        environment._rebuild_env = _REBUILD
 
 
 def _no_extensions() -> None:
