@@ -69,8 +69,10 @@ heavy = [m for m in ('numba.np.arraymath', 'numba.np.arrayobj', 'numba.typed.typ
 fit = [float(v).hex() for v in np.concatenate(
     [np.atleast_1d(r.params[k]) for k in sorted(r.params)] + [[r.loss]])]
 from numba.core import entrypoints
+from brdffit.kernels import _cached
 print(json.dumps({{'loaded': loaded, 'heavy': heavy, 'fit': fit,
-                  'extensions': entrypoints._already_initialized}}))
+                  'extensions': entrypoints._already_initialized,
+                  'runtime': _cached.runtime_source['from']}}))
 """
 
 #: numba's own compilation in the same process afterwards: np.dot (BLAS through
@@ -128,10 +130,12 @@ def test_a_fit_loads_its_cached_loops_without_numbas_registries(light_and_numbas
     for name, (signatures, hits, misses, cache) in light["loaded"].items():
         assert (signatures, hits, misses, cache) == (1, 1, 0, "LightCache"), name
     assert light["heavy"] == [] and light["extensions"] is False
+    assert light["runtime"] == "file"  # numba's runtime as the first run saved it
     # the control: numba's own load refreshes the registries (scipy.linalg with them)
     # and reads the distributions' metadata for numba extensions
     assert {cache for *_, cache in numbas["loaded"].values()} == {"FunctionCache"}
     assert "numba.np.arraymath" in numbas["heavy"] and numbas["extensions"] is True
+    assert numbas["runtime"] is None
 
 
 @NEEDS_LIGHT
@@ -164,6 +168,24 @@ def test_numba_compiles_new_code_in_the_process_afterwards(light_and_numbas):
     and initialises the extensions before it compiles."""
     _, compiled_after, _ = light_and_numbas
     assert compiled_after == [True, True]
+
+
+@NEEDS_LIGHT
+def test_the_runtime_file_is_read_only_where_it_was_saved_for_this_numba(tmp_path):
+    """A runtime file of another numba, LLVM, Python or CPU (another key), or not one
+    at all, is not read: the runtime is then compiled, as numba does."""
+    import pickle
+
+    from numba.core.registry import cpu_target
+
+    from brdffit.kernels import _cached
+
+    codegen, path = cpu_target.target_context.codegen(), tmp_path / _cached.RUNTIME_FILE
+    assert _cached._read_runtime(codegen, str(path), ("key",)) is None  # no file
+    path.write_bytes(b"not a pickle")
+    assert _cached._read_runtime(codegen, str(path), ("key",)) is None
+    path.write_bytes(pickle.dumps((("other key",), ("nrt", "object", (b"", b"")))))
+    assert _cached._read_runtime(codegen, str(path), ("key",)) is None
 
 
 @NEEDS_LIGHT
