@@ -136,18 +136,24 @@ class Stages:
         self._numba()
 
     def _numba(self) -> None:
-        if "numba.core.runtime.nrt" not in sys.modules or "numba_done" in self.seconds:
-            return
-        self.seconds["numba_done"] = 0.0  # once
-        from numba.core import caching, dispatcher
-        from numba.core.runtime import nrt
+        """Time numba's pieces once numba is imported, and brdffit's runtime load
+        (:mod:`brdffit.kernels._cached`) once it is."""
+        if "numba.core.runtime.nrt" in sys.modules and "numba_done" not in self.seconds:
+            self.seconds["numba_done"] = 0.0  # once
+            from numba.core import caching, dispatcher
+            from numba.core.runtime import nrt
 
-        for owner, name, label in (
-            (type(nrt.rtsys), "initialize", "numba's runtime (NRT) compiled"),
-            (caching.Cache, "_load_overload", "the loops' cache loads"),
-            (dispatcher.Dispatcher, "typeof_pyval", "argument types of a loop's first call"),
-        ):
-            setattr(owner, name, self.timed(getattr(owner, name), label))
+            for owner, name, label in (
+                (type(nrt.rtsys), "initialize", "numba's runtime (NRT)"),
+                (caching.Cache, "_load_overload", "the loops' cache loads"),
+                (dispatcher.Dispatcher, "typeof_pyval", "argument types of a loop's first call"),
+            ):
+                setattr(owner, name, self.timed(getattr(owner, name), label))
+        cached = sys.modules.get("brdffit.kernels._cached")
+        if cached is not None and "cached_done" not in self.seconds:
+            self.seconds["cached_done"] = 0.0
+            label = "numba's runtime (NRT)"
+            cached._initialize_runtime = self.timed(cached._initialize_runtime, label)
 
 
 def breakdown_worker(path: str, model: str) -> None:
@@ -163,6 +169,7 @@ def breakdown_worker(path: str, model: str) -> None:
         brdffit.fit(data, model, loss="l2")
         seconds.append(time.process_time() - start)
     stages.seconds.pop("numba_done", None)
+    stages.seconds.pop("cached_done", None)
     print(json.dumps({"first": seconds[0], "warm": seconds[1], "stages": stages.seconds}))
 
 
