@@ -160,17 +160,21 @@ def breakdown_worker(path: str, model: str) -> None:
     """A first and a warm fit in this process, the first's :class:`Stages` timed."""
     import brdffit
 
-    stages, seconds = Stages(), []
+    stages, seconds, faults, system = Stages(), [], [], []
     for _ in range(2):
         data = brdffit.read(path)
         if not seconds:
             stages.install()
-        start = time.process_time()
+        before, start = resource.getrusage(resource.RUSAGE_SELF), time.process_time()
         brdffit.fit(data, model, loss="l2")
         seconds.append(time.process_time() - start)
+        after = resource.getrusage(resource.RUSAGE_SELF)
+        faults.append(after.ru_minflt - before.ru_minflt)
+        system.append(after.ru_stime - before.ru_stime)
     stages.seconds.pop("numba_done", None)
     stages.seconds.pop("cached_done", None)
-    print(json.dumps({"first": seconds[0], "warm": seconds[1], "stages": stages.seconds}))
+    print(json.dumps({"first": seconds[0], "warm": seconds[1], "stages": stages.seconds,
+                      "faults": faults, "system": system}))  # fmt: skip
 
 
 def breakdown(path: Path, models: list, repeats: int) -> None:
@@ -195,6 +199,10 @@ def breakdown(path: Path, models: list, repeats: int) -> None:
         ("**first fit - warm fit**", lambda r: r["first"] - r["warm"]),
         ("first fit", lambda r: r["first"]),
         ("warm fit", lambda r: r["warm"]),
+        ("the first fit's page faults, thousands (of its memory's first touch)",
+         lambda r: r["faults"][0] / 1000.0),
+        ("the first fit's system CPU s (the warm fit's: next row)", lambda r: r["system"][0]),
+        ("the warm fit's system CPU s", lambda r: r["system"][1]),
     ]  # fmt: skip
     print(f"| a first fit's CPU s beyond its warm fit's (median of {repeats}) | "
           + " | ".join(models) + " |")  # fmt: skip
