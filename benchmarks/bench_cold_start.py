@@ -21,7 +21,10 @@ first call (numba's runtime compiled, then the cache load:
 a ward fit no longer imports, and last what a cache load no longer does: numba's
 target context's registries, which import ``scipy.linalg`` (numba's
 ``arraymath._check_blas``; a compilation still refreshes them); then each model's
-first and second fit of the same 50,000 pairs.
+first and second fit of the same 50,000 pairs. A random geometry of 50,000 pairs
+takes neither the coarse-to-fine schedule nor the misfit test's counting sorts, whose
+loops a whole MERL file's fit loads too: ``benchmarks/bench_merl.py --breakdown``
+splits that fit's first-fit CPU by stage.
 
     python benchmarks/bench_cold_start.py --old /tmp/brdffit-old --runs 9
     python benchmarks/bench_cold_start.py --first-fit --runs 7

@@ -14,9 +14,17 @@ compiled: its machine code is read (``CompileResult._rebuild``: the object code
 into numba's JIT, the entry point made callable), and it needs only what that code
 links against: numba's C helpers (installed when the target context is made) and
 numba's reference-counting runtime (NRT, whose ``initialize`` compiles its
-functions once, 0.02 s). :class:`LightCache` loads the loops that way: it
-initialises the NRT and reads the cache, where numba's cache refreshes the whole
-context first.
+functions with LLVM in every process, 15 ms). :class:`LightCache` loads the loops
+that way: it initialises the NRT, its functions read from a file of their machine
+code saved beside the loops' cache by the first process that compiled them
+(:func:`_initialize_runtime`, 2 ms), and reads the cache, where numba's cache
+refreshes the whole context first.
+
+The cached machine code comes with the environments of the functions it holds
+(their module's globals and constants), which numba's rebuild makes by importing
+each function's module: those of numba's implementations linked in (``np.empty``:
+``numba.np.arrayobj``, 15-25 ms of CPU) are made without the import
+(:func:`_rebuild_environment`).
 
 Before that, a dispatcher's first call ran numba's ``entrypoints.init_all``, which
 reads the metadata of every installed distribution for numba extensions (0.02 s
@@ -38,10 +46,17 @@ version), so the loops then load as before, only slower.
 
 from __future__ import annotations
 
+import contextlib
+import os
+import pickle
 import re
+import sys
+import uuid
 
+import llvmlite
 import numba
-from numba.core import caching
+from llvmlite import binding
+from numba.core import caching, config, environment
 from numba.core.dispatcher import Dispatcher
 
 __all__ = ["LightCache", "lighten"]
@@ -80,6 +95,9 @@ def _release(version: str) -> tuple:
 
 _USABLE = (
     _RTSYS is not None
+    and hasattr(_RTSYS, "_init")
+    and callable(getattr(environment, "_rebuild_env", None))
+    and hasattr(environment, "lookup_environment")
     and all(hasattr(caching.FunctionCache, n) for n in _NEEDED)
     and _release(numba.__version__) in TESTED_RELEASES
 )
@@ -93,10 +111,116 @@ class LightCache(caching.FunctionCache):
 
         numba's own method refreshes ``target_context`` first; here only the runtime
         the machine code links against is initialised (see the module's doc)."""
-        _RTSYS.initialize(target_context)
-        with self._guard_against_spurious_io_errors():
+        _initialize_runtime(target_context, self.cache_path)
+        with self._guard_against_spurious_io_errors(), _numbas_modules_unimported():
             return self._load_overload(sig, target_context)
         return None  # the guard swallowed an I/O error on Windows, as numba's own
+
+
+#: Where the runtime's compiled functions came from in this process: None (not
+#: initialised here, or by numba), "file" (:data:`RUNTIME_FILE`) or "compiled".
+runtime_source = {"from": None}
+#: The file, in the loops' cache folder, of the runtime's compiled functions.
+RUNTIME_FILE = f"_cached.runtime.py{sys.version_info[0]}{sys.version_info[1]}.nbc"
+
+
+def _initialize_runtime(target_context, folder: str) -> None:
+    """numba's runtime initialised as ``rtsys.initialize`` does it, its few functions
+    (reference counts, atomic operations) read from :data:`RUNTIME_FILE` in ``folder``
+    where a process saved them for this numba, LLVM, Python and CPU, else compiled
+    and saved there: numba compiles them with LLVM at every start (15 ms of CPU).
+    The machine code is LLVM's for the same module, read back as numba reads a
+    cached loop's (its object code and the bitcode later compilations link with).
+    Where any of it fails, numba's own initialisation runs."""
+    if _RTSYS._init:
+        return
+    try:
+        from numba.core.runtime import _nrt_python, nrtdynmod
+
+        if config.NRT_STATS:
+            _nrt_python.memsys_enable_stats()
+        for name, address in _nrt_python.c_helpers.items():
+            binding.add_symbol(name if name.startswith("_") else f"NRT_{name}", address)
+        codegen = target_context.codegen()
+        key = (numba.__version__, llvmlite.__version__, sys.version_info[:2])
+        key += (codegen.magic_tuple(),)
+        path = os.path.join(folder, RUNTIME_FILE)
+        library = _read_runtime(codegen, path, key)
+        runtime_source["from"] = "file" if library is not None else "compiled"
+        if library is None:
+            ir_module, library = nrtdynmod.create_nrt_module(target_context)
+            library.enable_object_caching()
+            library.add_ir_module(ir_module)
+            library.finalize()
+            _save_runtime(library, path, key)
+        _RTSYS._library, _RTSYS._init = library, True
+    except Exception:
+        runtime_source["from"] = None
+        _RTSYS.initialize(target_context)
+
+
+def _read_runtime(codegen, path: str, key: tuple):
+    """The runtime's library from ``path`` if it was saved there under ``key``."""
+    try:
+        with open(path, "rb") as handle:
+            saved, state = pickle.load(handle)
+    except (OSError, EOFError, pickle.UnpicklingError, ValueError, TypeError):
+        return None
+    return codegen.unserialize_library(state) if saved == key else None
+
+
+def _save_runtime(library, path: str, key: tuple) -> None:
+    """Save the runtime's compiled ``library`` at ``path`` under ``key`` (replaced
+    whole, as numba writes its cache; nothing where the folder is not writable)."""
+    if library.has_dynamic_globals:  # addresses of this process: not reusable
+        return
+    data = pickle.dumps((key, library.serialize_using_object_code()), protocol=-1)
+    temporary = f"{path}.tmp.{uuid.uuid4().hex[:16]}"  # as numba's _open_for_write
+    try:
+        with open(temporary, "wb") as out:
+            out.write(data)
+        os.replace(temporary, path)
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.remove(temporary)
+
+
+#: numba's own rebuild of a function's environment (see :func:`_rebuild_environment`).
+_REBUILD = getattr(environment, "_rebuild_env", None)
+
+
+def _rebuild_environment(modname, consts, env_name):
+    """A cached function's environment, as numba's ``_rebuild_env`` makes it, but
+    for a function of numba's own implementation modules not yet imported.
+
+    numba's rebuild imports the module the function was defined in, for the
+    environment's globals: a loop that allocates (``np.empty``) links numba's
+    implementation of it, and its environment imported ``numba.np.arrayobj``
+    (15-25 ms of CPU, with numba's strings and ``numpy.ma``). An environment's
+    globals serve only code compiled in object mode, which numba's implementations
+    never are (they are overloads and intrinsics, compiled in nopython mode); their
+    environments get the module's name as globals and the cached constants, and
+    numba's own rebuild stays for every other module (the loops' own)."""
+    if modname in sys.modules or not modname.startswith("numba."):
+        return _REBUILD(modname, consts, env_name)
+    env = environment.lookup_environment(env_name)
+    if env is None:
+        env = environment.Environment({"__name__": modname})
+        env.consts[:] = consts
+        env.env_name = env_name
+        environment.Environment._memo[env_name] = env
+    return env
+
+
+@contextlib.contextmanager
+def _numbas_modules_unimported():
+    """While a cached loop loads (numba's compiler lock held by its dispatcher):
+    its pickle rebuilds environments by :func:`_rebuild_environment`."""
+    environment._rebuild_env = _rebuild_environment
+    try:
+        yield
+    finally:
+        environment._rebuild_env = _REBUILD
 
 
 def _no_extensions() -> None:

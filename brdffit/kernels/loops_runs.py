@@ -50,7 +50,10 @@ def order_by_ranks(primary, secondary, n_secondary, out):
     """Write in ``out`` the indices of the samples sorted by ``(primary, secondary)``
     (ranks, ``secondary`` below ``n_secondary``), equal pairs in the samples' order: a
     counting sort over the buckets ``primary * n_secondary + secondary``."""
-    buckets = (np.max(primary) + 1) * n_secondary if primary.shape[0] else 0
+    top = -1  # the largest rank, by a loop: numba's np.max would make every process
+    for i in range(primary.shape[0]):  # that loads this loop import numba.np.arraymath
+        top = max(top, primary[i])  # and with it scipy.linalg (0.11 s of CPU)
+    buckets = (top + 1) * n_secondary
     start = np.zeros(buckets + 1, dtype=np.int64)
     for i in range(primary.shape[0]):
         start[primary[i] * n_secondary + secondary[i] + 1] += 1

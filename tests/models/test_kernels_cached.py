@@ -3,9 +3,10 @@
 A first compiled fit in a process paid numba's refresh of its CPU target's
 registries (some seventy modules of numba and scipy.linalg, 0.3-0.4 s of CPU) on
 its first load of a cached loop; the loops now load without it. These tests hold
-that a fit loads its loops that way, that the fit is the same bit for bit as with
-numba's own load, that numba compiles new code in that process as before, and
-that a fit's calls give each loop one signature to load.
+that a fit loads its loops that way (a large table's fit too, whose loops must not
+link numba's array maths), that the fit is the same bit for bit as with numba's
+own load, that numba compiles new code in that process as before, and that a fit's
+calls give each loop one signature to load.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ import brdffit
 from brdffit import kernels
 {prelude}
 with kernels.use(True):
-    r = brdffit.fit(brdffit.read('data_synthetic/ward.csv'), 'ward', loss='l2')
+    r = brdffit.fit({data}, {model!r}, loss='l2')
 from numba.core.dispatcher import Dispatcher
 loaded = {{}}
 for name, module in list(sys.modules.items()):
@@ -63,13 +64,15 @@ for name, module in list(sys.modules.items()):
                 stats = value.stats
                 loaded[key] = [len(value.signatures), sum(stats.cache_hits.values()),
                                sum(stats.cache_misses.values()), type(value._cache).__name__]
-heavy = [m for m in ('numba.np.arraymath', 'numba.typed.typeddict', 'scipy.linalg')
-         if m in sys.modules]
+heavy = [m for m in ('numba.np.arraymath', 'numba.np.arrayobj', 'numba.typed.typeddict',
+                     'scipy.linalg') if m in sys.modules]
 fit = [float(v).hex() for v in np.concatenate(
     [np.atleast_1d(r.params[k]) for k in sorted(r.params)] + [[r.loss]])]
 from numba.core import entrypoints
+from brdffit.kernels import _cached
 print(json.dumps({{'loaded': loaded, 'heavy': heavy, 'fit': fit,
-                  'extensions': entrypoints._already_initialized}}))
+                  'extensions': entrypoints._already_initialized,
+                  'runtime': _cached.runtime_source['from']}}))
 """
 
 #: numba's own compilation in the same process afterwards: np.dot (BLAS through
@@ -87,9 +90,21 @@ print(json.dumps(['scipy.linalg' in sys.modules, entrypoints._already_initialize
 """
 
 
-def _run(prelude: str = "", after: str = "") -> list:
+#: The ward fit's data (a random geometry: the misfit test sorts it by numpy).
+WARD = "brdffit.read('data_synthetic/ward.csv')"
+#: A sixteenth of a MERL table, 68,514 pairs: above ``coarse_above``, so the fit takes
+#: the coarse-to-fine schedule (its compiled stratified draw), and a table's few
+#: distinct angles, so the misfit test sorts by counting (kernels/loops_runs.py).
+MERL_PART = (
+    "brdffit.synthesize('cook_torrance', {'kd': [0.12, 0.08, 0.05], 'ks': [0.9, 0.7, "
+    "0.5], 'm': 0.15, 'eta': 1.6}, geometry='merl', noise=0.01, seed=7).subset("
+    "np.arange(0, 1096216, 16))"
+)
+
+
+def _run(prelude: str = "", after: str = "", data: str = WARD, model: str = "ward") -> list:
     """The JSON lines the fit (and ``after``) print in a fresh interpreter."""
-    code = FIT.format(prelude=prelude) + after
+    code = FIT.format(prelude=prelude, data=data, model=model) + after
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=False
     )
@@ -115,10 +130,29 @@ def test_a_fit_loads_its_cached_loops_without_numbas_registries(light_and_numbas
     for name, (signatures, hits, misses, cache) in light["loaded"].items():
         assert (signatures, hits, misses, cache) == (1, 1, 0, "LightCache"), name
     assert light["heavy"] == [] and light["extensions"] is False
+    assert light["runtime"] == "file"  # numba's runtime as the first run saved it
     # the control: numba's own load refreshes the registries (scipy.linalg with them)
     # and reads the distributions' metadata for numba extensions
     assert {cache for *_, cache in numbas["loaded"].values()} == {"FunctionCache"}
     assert "numba.np.arraymath" in numbas["heavy"] and numbas["extensions"] is True
+    assert numbas["runtime"] is None
+
+
+@NEEDS_LIGHT
+def test_a_table_fit_loads_its_loops_without_numbas_array_maths():
+    """The loops of a large table's fit (the schedule's draw, the misfit test's
+    counting sorts) load without ``numba.np.arraymath``, whose import imports
+    ``scipy.linalg`` (0.11 s of CPU of a first MERL fit): a loop calling ``np.max``
+    links numba's implementation, whose environment the cache load imports."""
+    _run(data=MERL_PART, model="ggx")  # the disk cache filled where it is empty
+    light, compiled_after = _run(data=MERL_PART, model="ggx", after=COMPILE_AFTER)
+    assert {"draw", "order_by_ranks", "sign_codes_every"} <= set(light["loaded"])
+    for name, (signatures, hits, misses, cache) in light["loaded"].items():
+        assert (hits, misses, cache) == (signatures, 0, "LightCache"), name
+    assert light["heavy"] == []
+    # numba compiles an allocation afterwards, whose environment of np.empty's
+    # implementation the loops' load made without importing numba.np.arrayobj
+    assert compiled_after == [True, True]
 
 
 @NEEDS_LIGHT
@@ -134,6 +168,24 @@ def test_numba_compiles_new_code_in_the_process_afterwards(light_and_numbas):
     and initialises the extensions before it compiles."""
     _, compiled_after, _ = light_and_numbas
     assert compiled_after == [True, True]
+
+
+@NEEDS_LIGHT
+def test_the_runtime_file_is_read_only_where_it_was_saved_for_this_numba(tmp_path):
+    """A runtime file of another numba, LLVM, Python or CPU (another key), or not one
+    at all, is not read: the runtime is then compiled, as numba does."""
+    import pickle
+
+    from numba.core.registry import cpu_target
+
+    from brdffit.kernels import _cached
+
+    codegen, path = cpu_target.target_context.codegen(), tmp_path / _cached.RUNTIME_FILE
+    assert _cached._read_runtime(codegen, str(path), ("key",)) is None  # no file
+    path.write_bytes(b"not a pickle")
+    assert _cached._read_runtime(codegen, str(path), ("key",)) is None
+    path.write_bytes(pickle.dumps((("other key",), ("nrt", "object", (b"", b"")))))
+    assert _cached._read_runtime(codegen, str(path), ("key",)) is None
 
 
 @NEEDS_LIGHT
