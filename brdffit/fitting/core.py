@@ -284,7 +284,7 @@ def _result(
     converged = code in CONVERGED and found.best.loss < BAD_LOSS and not found.stopped
     at_bounds = _at_bounds(problem, found.best_x if problem.dim else (), params)
     deadline = None if opts.timeout is None else (perf_counter() - seconds) + opts.timeout
-    unidentified = _unidentified(problem, params, deadline)
+    unidentified = _unidentified(problem, params, deadline, pred)
     message = ("converged: " if converged else "not converged: ") + (found.stopped or reason(code))
     if at_bounds:
         message += "; at a bound of its range: " + ", ".join(at_bounds)
@@ -319,12 +319,13 @@ def _result(
     return result, pred
 
 
-def _unidentified(problem: Problem, params: Mapping, deadline=None) -> dict:
+def _unidentified(problem: Problem, params: Mapping, deadline=None, pred=None) -> dict:
     """The parameters the data do not constrain, with why
-    (:mod:`brdffit.fitting.identifiability`); none where the check cannot be made."""
+    (:mod:`brdffit.fitting.identifiability`, given the fit's prediction ``pred``); none
+    where the check cannot be made."""
     from .identifiability import unidentified
 
     try:
-        return unidentified(problem, params, deadline)
+        return unidentified(problem, params, deadline, pred)
     except (np.linalg.LinAlgError, FloatingPointError, ValueError):
         return {}

@@ -50,7 +50,12 @@ from dataclasses import fields, replace
 
 import numpy as np
 
-from .information import channel_information, coefficient_diagonal, null_and_variance
+from .information import (
+    by_parameter,
+    channel_information,
+    coefficient_diagonal,
+    null_and_variance,
+)
 from .problem import linear_at_bounds
 from .schedule import seeded_rows
 
@@ -84,7 +89,7 @@ NORMAL_INCIDENCE = 1.0
 SAME_AZIMUTH = 1.0
 
 
-def unidentified(problem, params, deadline=None) -> dict:
+def unidentified(problem, params, deadline=None, pred=None) -> dict:
     """Name -> reason for every free parameter of a fit that the data do not constrain.
 
     Parameters
@@ -96,6 +101,8 @@ def unidentified(problem, params, deadline=None) -> dict:
     deadline : float, optional
         A ``time.perf_counter()`` time (the fit's timeout): the Fisher check stops
         there (plus :data:`GRACE` seconds) and names nothing.
+    pred : ndarray (N, C), optional
+        The fit's prediction at ``params`` (:meth:`Problem.predict`): not evaluated again.
 
     Returns
     -------
@@ -104,7 +111,7 @@ def unidentified(problem, params, deadline=None) -> dict:
     """
     out: dict[str, list] = {}
     try:
-        fisher = _fisher(problem, dict(params), deadline)
+        fisher = _fisher(problem, dict(params), deadline, pred)
     except _Late:
         fisher = {}
     for name, why in [*_azimuth_coverage(problem).items(), *fisher.items()]:
@@ -175,19 +182,23 @@ MAX_ENTRIES = 4_000_000
 MAX_ROWS = 50_000
 
 
-def _fisher(problem, params: dict, deadline=None) -> dict:
-    """Unidentified parameters by the rank of the Fisher information and the widths."""
+def _fisher(problem, params: dict, deadline=None, pred=None) -> dict:
+    """Unidentified parameters by the rank of the Fisher information and the widths
+    (``pred``, the fit's values at ``params``, where they are the check's own)."""
     if deadline is not None:
         deadline = max(deadline, time.perf_counter()) + GRACE
-    params = _at_their_bounds(problem, params)
+    snapped = _at_their_bounds(problem, params)
     rows = _rows(problem)
     geometry = _geometry(problem, rows)
-    base = _predict(problem, params, geometry)
-    ctx = _context(problem, rows)
+    whole = len(rows) == problem.geometry.m and problem.geometry.all_valid
+    same = pred is not None and whole and all(v is params[k] for k, v in snapped.items())
+    base = pred if same else _predict(problem, snapped, geometry) if _reads(problem) else None
+    params, ctx = snapped, _context(problem, rows)
     unit = problem.loss.name == "l2" and ctx.weights is None  # weights of ones: none
-    w, target = (None, ctx.y) if unit else problem.loss.linearised(base, ctx)
-    if not unit and np.shape(w) != base.shape:  # (broadcast_to of its shape: 3 us for nothing)
-        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], base.shape)
+    ref = ctx.y if base is None else base  # a linear loss's weights read only its shape
+    w, target = (None, ctx.y) if unit else problem.loss.linearised(ref, ctx)
+    if not unit and np.shape(w) != ref.shape:  # (broadcast_to of its shape: 3 us for nothing)
+        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], ref.shape)
     names, kinds, sources, layout = _jacobian(problem, params, geometry, base, deadline)
     if not layout:
         return {}
@@ -195,15 +206,20 @@ def _fisher(problem, params: dict, deadline=None) -> dict:
     info = coefficient_diagonal(sources, layout, sqrt_w)
     info = channel_information(sources, layout, sqrt_w) if info is None else info
     info *= problem.geometry.m / len(rows)
-    dof = max(base.size * problem.geometry.m / len(rows) - len(names), 1.0)
-    d = np.subtract(target, base)
-    if problem.loss.needs_sigma:
-        s2 = 1.0
-    elif unit:
-        s2 = float(np.einsum("mc,mc->", d, d)) / dof
-    else:
-        s2 = float(np.einsum("mc,mc,mc->", w, d, d)) / dof
+    dof = max(ref.size * problem.geometry.m / len(rows) - len(names), 1.0)
+    s2 = 1.0  # with sigma; else the residual variance
+    if not problem.loss.needs_sigma:
+        d = np.subtract(target, base)
+        s2 = float(np.einsum("mc,mc->", d, d) if unit else np.einsum("mc,mc,mc->", w, d, d)) / dof
     return _judge(names, kinds, info / max(s2, 1e-300), params)
+
+
+def _reads(problem) -> bool:
+    """Whether the check reads the model's values at the fit: for differences (shape
+    parameters, mapped coefficients), a loss linearised there or the residual variance
+    (no sigma); lambert's kd with sigma needs none."""
+    loss, exact = problem.loss, EXACT_COEFFICIENTS and problem.model.to_coefficients is None
+    return bool(problem.dim) or not exact or not loss.linear or not loss.needs_sigma
 
 
 def _rows(problem) -> np.ndarray:
@@ -307,7 +323,8 @@ def _coefficient_columns(problem, params, geometry, base, p, deadline, design=No
         return None
     if design is not None:  # the model is linear in it: its column is the derivative
         column = np.asarray(design.columns[problem.model.coefficients.index(p.name)], float)
-        diff = np.broadcast_to(column if column.ndim == 2 else column[..., None], base.shape)
+        shape = (geometry.m, problem.n_channels)  # base's: None where not read (_reads)
+        diff = np.broadcast_to(column if column.ndim == 2 else column[..., None], shape)
     else:
         h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
         shifted = value + h
@@ -332,8 +349,9 @@ def _at_their_bounds(problem, params: dict) -> dict:
         if p.name in problem.fixed:
             continue
         low, high = linear_at_bounds(p, params[p.name])
-        snapped = np.where(low, p.lower, np.where(high, p.upper, params[p.name]))
-        out[p.name] = float(snapped) if snapped.ndim == 0 else snapped
+        if low.any() or high.any():  # else the value itself (np.where's values)
+            snapped = np.where(low, p.lower, np.where(high, p.upper, params[p.name]))
+            out[p.name] = float(snapped) if snapped.ndim == 0 else snapped
     return out
 
 
@@ -348,7 +366,7 @@ def _judge(names, kinds, info, params) -> dict:
         out[names[i]] = "the fitted model does not change with it at the data's directions"
     live = np.flatnonzero(~dead)
     if live.size == 0:
-        return _by_parameter(out)
+        return by_parameter(out)
     # a diagonal one's entries are the plain way's (its others are 0)
     unit = (info[live] / (scale[live] * scale[live]) if diagonal
             else info[np.ix_(live, live)] / np.outer(scale[live], scale[live]))  # fmt: skip
@@ -379,22 +397,4 @@ def _judge(names, kinds, info, params) -> dict:
         out[names[i]] = (
             f"the data constrain it only to {spread} (1 sigma, from the Fisher information)"
         )
-    return _by_parameter(out)
-
-
-def _by_parameter(out: dict) -> dict:
-    """Per-channel entries (``kd[r]``) gathered under their parameter's name."""
-    merged: dict = {}
-    for name, why in out.items():
-        base, bracket, channel = name.partition("[")
-        if bracket:
-            merged.setdefault(base, {}).setdefault(why, []).append(channel.rstrip("]"))
-        else:
-            merged[name] = {why: []}
-    return {
-        name: "; ".join(
-            why if not channels else f"channel(s) {', '.join(channels)}: {why}"
-            for why, channels in reasons.items()
-        )
-        for name, reasons in merged.items()
-    }
+    return by_parameter(out)

@@ -31,6 +31,7 @@ from .channels import dot_by_channel
 
 __all__ = [
     "CERTIFY_MARGIN",
+    "by_parameter",
     "channel_information",
     "coefficient_diagonal",
     "inverse_diagonal",
@@ -155,3 +156,22 @@ def _diagonal_inverse(diagonal: np.ndarray, rtol: float) -> np.ndarray | None:
     if not np.isfinite(total) or total * CERTIFY_MARGIN * rtol * len(diagonal) > 1.0:
         return None
     return inverse
+
+
+def by_parameter(out: dict) -> dict:
+    """The identifiability check's reasons by name, its per-channel entries (``kd[r]``)
+    gathered under their parameter's name."""
+    merged: dict = {}
+    for name, why in out.items():
+        base, bracket, channel = name.partition("[")
+        if bracket:
+            merged.setdefault(base, {}).setdefault(why, []).append(channel.rstrip("]"))
+        else:
+            merged[name] = {why: []}
+    return {
+        name: "; ".join(
+            why if not channels else f"channel(s) {', '.join(channels)}: {why}"
+            for why, channels in reasons.items()
+        )
+        for name, reasons in merged.items()
+    }
