@@ -23,6 +23,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import replace
 from time import perf_counter
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -102,8 +103,10 @@ def fit(data, model, **options) -> FitResult:
     # An energy-conserving fit: checked, and polished again where albedo passes 1.
     problem, found, code, energy = enforce_energy(problem, found, code, opts, t0)
     problem.let_go()  # the search's inputs go before the checks form their arrays
-    result, pred = _result(problem, found, code, opts, perf_counter() - t0, energy)
-    result = replace(result, **assess(problem, result, noise))
+    fields, pred = _result(problem, found, code, opts, perf_counter() - t0, energy)
+    # the checks' fields join the result's before it is built, once
+    fields.update(assess(problem, SimpleNamespace(**fields), noise, pred))
+    result = FitResult(**fields)
     # The fitted prediction (shared by the metrics and the misfit verdict) and the
     # problem go before a refit builds its own (a MERL file's peak: 130 MB less).
     del pred, problem, found
@@ -263,9 +266,9 @@ def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:
 
 def _result(
     problem: Problem, found, code, opts: FitOptions, seconds: float, energy=None
-) -> tuple[FitResult, np.ndarray]:
-    """The FitResult of the search's best point, and the prediction there (N, C), which
-    :meth:`Problem.predict` gives to later callers while it is held."""
+) -> tuple[dict, np.ndarray]:
+    """The fields of the FitResult of the search's best point, and the prediction there
+    (N, C), which :meth:`Problem.predict` gives to later callers while it is held."""
     if found.best is None:
         raise FitError(
             "the fit stopped before its first evaluation (timeout or max_evals)", "timeout"
@@ -295,7 +298,7 @@ def _result(
     if energy is not None:
         metrics["max_albedo"] = energy.top
         message += energy.note()
-    result = FitResult(
+    fields = dict(
         model=problem.model.name,
         params=params,
         loss=loss,
@@ -316,7 +319,7 @@ def _result(
         weights=opts.weights,
         unidentified=unidentified,
     )
-    return result, pred
+    return fields, pred
 
 
 def _unidentified(problem: Problem, params: Mapping, deadline=None, pred=None) -> dict:
