@@ -51,10 +51,9 @@ from dataclasses import fields, replace
 import numpy as np
 
 from .information import (
-    by_parameter,
     channel_information,
     coefficient_diagonal,
-    null_and_variance,
+    judge,
 )
 from .problem import linear_at_bounds
 from .schedule import seeded_rows
@@ -356,45 +355,6 @@ def _at_their_bounds(problem, params: dict) -> dict:
 
 
 def _judge(names, kinds, info, params) -> dict:
-    """Null directions of the unit-diagonal information (its diagonal where it is
-    diagonal: ``coefficient_diagonal``), then the shape widths."""
-    out, diagonal = {}, info.ndim == 1 and np.isfinite(info).all()  # else as a matrix:
-    info = np.diag(info) if info.ndim == 1 and not diagonal else info  # the plain way's
-    scale = np.sqrt(info if diagonal else np.diag(info))
-    dead = scale <= 1e-300 * max(scale.max(), 1e-300)
-    for i in np.flatnonzero(dead):
-        out[names[i]] = "the fitted model does not change with it at the data's directions"
-    live = np.flatnonzero(~dead)
-    if live.size == 0:
-        return by_parameter(out)
-    # a diagonal one's entries are the plain way's (its others are 0)
-    unit = (info[live] / (scale[live] * scale[live]) if diagonal
-            else info[np.ix_(live, live)] / np.outer(scale[live], scale[live]))  # fmt: skip
-    null_sets, variance = null_and_variance(unit, RANK_RTOL)
-    for positions in null_sets:
-        involved = [live[i] for i in positions]
-        for i in involved:
-            others = [names[j] for j in involved if j != i]
-            out.setdefault(
-                names[i],
-                "the data do not separate it from "
-                + (", ".join(others) or "nothing")
-                + " (their combination leaves the fit unchanged: the Fisher information is "
-                "singular)",
-            )
-    for pos, i in enumerate(live):
-        if names[i] in out or kinds[i] == "coef":
-            continue
-        sd = math.sqrt(max(variance[pos], 0.0)) / scale[i]
-        value = float(params[names[i]])
-        width = math.log(10.0) * sd if kinds[i] == "log" else sd / max(abs(value), 1e-300)
-        if width <= MAX_RELATIVE_WIDTH:
-            continue
-        if kinds[i] == "log":
-            spread = f"a relative width of {width:.3g}"
-        else:  # at or near 0 a relative width says nothing (it was printed as 1e+297)
-            spread = f"{value:.3g} +- {sd:.3g}, a relative width above {MAX_RELATIVE_WIDTH:g}"
-        out[names[i]] = (
-            f"the data constrain it only to {spread} (1 sigma, from the Fisher information)"
-        )
-    return by_parameter(out)
+    """:func:`~brdffit.fitting.information.judge` at :data:`RANK_RTOL` and
+    :data:`MAX_RELATIVE_WIDTH`."""
+    return judge(names, kinds, info, params, RANK_RTOL, MAX_RELATIVE_WIDTH)
