@@ -196,11 +196,11 @@ def _check_signal(data: Measurements) -> None:
             "stay finite and normal in double precision); rescale the values",
             "values",
         )
-    if data.sigma is not None:
-        ratio = np.asarray(data.sigma, dtype=float) / top
+    if data.sigma is not None:  # the least and largest sigma / top: those of sigma over
+        sigma = np.asarray(data.sigma, dtype=float)  # it (a division rounds monotonically)
         for bad, limit, why in (
-            (ratio.min() < SIGMA_RANGE[0], "min", "the weights 1/sigma^2 would overflow"),
-            (ratio.max() > SIGMA_RANGE[1], "max", "the weights 1/sigma^2 would underflow"),
+            (sigma.min() / top < SIGMA_RANGE[0], "min", "the weights 1/sigma^2 would overflow"),
+            (sigma.max() / top > SIGMA_RANGE[1], "max", "the weights 1/sigma^2 would underflow"),
         ):
             if bad:
                 sigma = float(getattr(np.asarray(data.sigma), limit)())
@@ -259,7 +259,7 @@ def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:
         if p.name in problem.fixed:
             continue
         low, high = linear_at_bounds(p, params[p.name])
-        if np.any(low) or np.any(high):
+        if low.any() or high.any():
             out.append(p.name)
     return tuple(out)
 
@@ -283,7 +283,7 @@ def _result(
     # The l2 loss without weights is the l2 metric (the same sum over every value, the
     # pairs below the horizon predicted 0): not summed a second time (3.3 M on MERL).
     unweighted_l2 = problem.loss.name == "l2" and problem.user_weights is None
-    loss = metrics["l2"] if unweighted_l2 else problem.exact_loss(params)
+    loss = metrics["l2"] if unweighted_l2 else problem.exact_loss(params, pred)
     converged = code in CONVERGED and found.best.loss < BAD_LOSS and not found.stopped
     at_bounds = _at_bounds(problem, found.best_x if problem.dim else (), params)
     deadline = None if opts.timeout is None else (perf_counter() - seconds) + opts.timeout

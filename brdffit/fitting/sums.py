@@ -61,11 +61,11 @@ def loss_sums(pred: np.ndarray, ctx: LossContext) -> dict:
         pred, y = pred[:, None], y.reshape(len(y), -1)
     if kernels.wanted(len(y), modules=("loops_sums",)):  # samples, as models count pairs
         return _compiled(pred, y, ctx, names)
-    whole = _whole(ctx, names)
     if 0 < len(y) <= max(1, VALUES // y.shape[1]):  # one block: _by_blocks' sums, 10 us less
-        sums = _block_sums(pred, whole, names)  # (a block's slices are the whole arrays)
+        # (a block's slices are the whole arrays, its y_scale the context's own)
+        sums = _block_sums(pred, ctx if ctx.y is y else _whole(ctx, names), names)
         return {name: sums[name] for name in [*names, "rss"]}
-    return _by_blocks(pred, y, ctx, whole, names)
+    return _by_blocks(pred, y, ctx, _whole(ctx, names), names)
 
 
 def _names(ctx: LossContext) -> list:
