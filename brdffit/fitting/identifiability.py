@@ -184,6 +184,9 @@ MAX_ROWS = 50_000
 def _fisher(problem, params: dict, deadline=None, pred=None) -> dict:
     """Unidentified parameters by the rank of the Fisher information and the widths
     (``pred``, the fit's values at ``params``, where they are the check's own)."""
+    quick = _coefficients_only(problem, params, pred)
+    if quick is not None:
+        return quick
     if deadline is not None:
         deadline = max(deadline, time.perf_counter()) + GRACE
     snapped = _at_their_bounds(problem, params)
@@ -213,10 +216,47 @@ def _fisher(problem, params: dict, deadline=None, pred=None) -> dict:
     return _judge(names, kinds, info / max(s2, 1e-300), params)
 
 
+def _coefficients_only(problem, params: dict, pred) -> dict | None:
+    """:func:`_fisher` of a fit whose free parameters are one linear parameter's
+    coefficients (lambert's kd), its column the design's, every sample taken, none at a
+    bound, the loss linear: the same operations on the same arrays without the general
+    steps' copies (the residual variance from ``pred``); None where it does not apply."""
+    model, loss, m, c = problem.model, problem.loss, problem.geometry.m, problem.n_channels
+    free = [p for p in model.linear_params if p.name not in problem.fixed]
+    exact = EXACT_COEFFICIENTS and model.to_coefficients is None
+    if problem.dim or len(free) != 1 or not (exact and loss.linear) or len(_rows(problem)) != m:
+        return None
+    p, ctx = free[0], problem.ctx
+    low, high = linear_at_bounds(p, params[p.name])
+    whole = pred is not None and problem.geometry.all_valid  # pred: the check's own values
+    if low.any() or high.any() or not (loss.needs_sigma or whole):
+        return None  # held at a bound, or values to evaluate: _fisher's steps
+    value = np.asarray(params[p.name], dtype=float)
+    values = (value if value.shape == (c,) else np.broadcast_to(value, (c,))).tolist()
+    inside = [i for i, v in enumerate(values) if p.lower < v < p.upper]
+    if not inside:
+        return {}
+    names = [p.name if c == 1 else f"{p.name}[{problem.data.channels[i]}]" for i in inside]
+    unit = loss.name == "l2" and ctx.weights is None
+    w, target = (None, ctx.y) if unit else loss.linearised(ctx.y, ctx)  # reads its shape
+    if not unit and np.shape(w) != ctx.y.shape:
+        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], ctx.y.shape)
+    column = _design(problem, params, problem.geometry).columns[model.coefficients.index(p.name)]
+    column = np.asarray(column, float)
+    source = np.broadcast_to(column if column.ndim == 2 else column[..., None], (m, c))
+    info = coefficient_diagonal([source], [(0, i) for i in inside], None if unit else np.sqrt(w))
+    if info is None:
+        return None
+    s2 = 1.0  # with sigma; else the residual variance
+    if not loss.needs_sigma:
+        d, dof = np.subtract(target, pred), max(float(ctx.y.size - len(names)), 1.0)
+        s2 = float(np.einsum("mc,mc->", d, d) if unit else np.einsum("mc,mc,mc->", w, d, d)) / dof
+    return _judge(names, ["coef"] * len(names), info / max(s2, 1e-300), params)
+
+
 def _reads(problem) -> bool:
-    """Whether the check reads the model's values at the fit: for differences (shape
-    parameters, mapped coefficients), a loss linearised there or the residual variance
-    (no sigma); lambert's kd with sigma needs none."""
+    """Whether the check reads the model's values at the fit (differences, a loss
+    linearised there, the residual variance without sigma)."""
     loss, exact = problem.loss, EXACT_COEFFICIENTS and problem.model.to_coefficients is None
     return bool(problem.dim) or not exact or not loss.linear or not loss.needs_sigma
 

@@ -285,10 +285,17 @@ def test_one_linear_parameter_s_verdicts_are_those_of_the_plain_way(case, monkey
                         lambda *a: calls.append(taken(*a)) or calls[-1])  # fmt: skip
     got = identifiability.unidentified(problem, params)
     assert calls and calls[-1] is not None  # the diagonal was taken, in floats
+    # with the fit's prediction, every case but the log loss (not linear) and dark's (a
+    # coefficient at a bound) takes the steps of _coefficients_only
+    lean, taken_lean = [], identifiability._coefficients_only
+    monkeypatch.setattr(identifiability, "_coefficients_only",
+                        lambda *a: lean.append(taken_lean(*a)) or lean[-1])  # fmt: skip
+    with_pred = identifiability.unidentified(problem, params, pred=problem.predict(params))
+    assert (lean[-1] is None) == (case in (1, 2))
     _plain(monkeypatch)
     monkeypatch.setattr(information, "_coefficients_dead", lambda *a: None)
     monkeypatch.setattr(identifiability, "coefficient_diagonal", lambda *a: None)
-    assert got == identifiability.unidentified(problem, params)
+    assert got == with_pred == identifiability.unidentified(problem, params)
 
 
 @pytest.mark.parametrize("diagonal", [
