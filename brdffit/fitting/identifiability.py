@@ -217,10 +217,9 @@ def _fisher(problem, params: dict, deadline=None, pred=None) -> dict:
 
 
 def _coefficients_only(problem, params: dict, pred) -> dict | None:
-    """:func:`_fisher` of a fit whose free parameters are one linear parameter's
-    coefficients (lambert's kd), its column the design's, every sample taken, none at a
-    bound, the loss linear: the same operations on the same arrays without the general
-    steps' copies (the residual variance from ``pred``); None where it does not apply."""
+    """:func:`_fisher`'s operations for one linear parameter's coefficients alone (lambert's
+    kd; its design column, every sample, none at a bound, a linear loss, residuals from
+    ``pred``) on the same arrays, without the general steps' copies; else None."""
     model, loss, m, c = problem.model, problem.loss, problem.geometry.m, problem.n_channels
     free = [p for p in model.linear_params if p.name not in problem.fixed]
     exact = EXACT_COEFFICIENTS and model.to_coefficients is None
@@ -243,7 +242,8 @@ def _coefficients_only(problem, params: dict, pred) -> dict | None:
         w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], ctx.y.shape)
     column = _design(problem, params, problem.geometry).columns[model.coefficients.index(p.name)]
     column = np.asarray(column, float)
-    source = np.broadcast_to(column if column.ndim == 2 else column[..., None], (m, c))
+    column = column if column.ndim == 2 else column[..., None]  # times sqrt_w: its values
+    source = np.broadcast_to(column, (m, c)) if unit else column  # (a broadcast: 5 us)
     info = coefficient_diagonal([source], [(0, i) for i in inside], None if unit else np.sqrt(w))
     if info is None:
         return None
