@@ -195,8 +195,12 @@ def _divided_by(scale: Callable[[LossContext], np.ndarray]):
 def _inverse(s: np.ndarray, f) -> np.ndarray:
     """``1 / s`` in the shape of ``ones_like(f) / s``, without the array of ones (a
     MERL file's mixed loss forms this for 3.3 M values at every reweighting)."""
-    inverse, shape = 1.0 / s, np.broadcast_shapes(np.shape(f), np.shape(s))
-    if isinstance(inverse, np.ndarray) and inverse.shape == shape:
+    inverse = 1.0 / s
+    mine = isinstance(inverse, np.ndarray)
+    if mine and inverse.shape == np.shape(f):  # s's shape is f's: their broadcast (3 us)
+        return inverse
+    shape = np.broadcast_shapes(np.shape(f), np.shape(s))
+    if mine and inverse.shape == shape:
         return inverse  # already that shape: a new array of its own (broadcast_to: 3 us)
     return np.broadcast_to(inverse, shape)
 

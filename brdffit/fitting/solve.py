@@ -192,6 +192,9 @@ def compact_weights(w: np.ndarray, z: np.ndarray):
 def _same_in_every_channel(w: np.ndarray) -> bool:
     """Whether every row of ``w`` (M, C) holds one value; the first rows are compared
     first (weights that differ by channel, as the log loss's, differ there at once)."""
+    first = w[0].tolist() if len(w) else []  # chi2's and log's differ in the first row:
+    if any(v != first[0] for v in first):  # its floats (NaN != NaN, as == fails below)
+        return False
     head = w[:64]  # (a == a[:, :1]).all() is np.array_equal of the broadcast, 4 us less
     if not (head == head[:, :1]).all():
         return False
