@@ -35,9 +35,14 @@ def worker(fits: int, only: str = "") -> None:
     """In a tree's process: every problem of its suite (or those whose label holds
     one of the comma-separated words of ``only``), as JSON lines."""
     sys.path.insert(0, str(Path.cwd() / "benchmarks"))
+    import _suite
     from _suite import cornell_cases, recovered, synthetic_cases
 
     import brdffit
+
+    # the Cornell files where this tree's suite finds them (beside this benchmark's
+    # tree: a worktree elsewhere, as /tmp/brdffit-old, would look in /tmp/shared)
+    _suite.CORNELL = Path(os.environ.get("BRDFFIT_BENCH_CORNELL", _suite.CORNELL))
 
     words = [w for w in only.split(",") if w]
     for case in synthetic_cases() + cornell_cases():
@@ -57,7 +62,8 @@ def worker(fits: int, only: str = "") -> None:
 
 def run(tree: Path, fits: int, only: str = "") -> dict:
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1",
-           "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}  # fmt: skip
+           "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+           "BRDFFIT_BENCH_CORNELL": str(ROOT.parent / "shared" / "data" / "cornell")}  # fmt: skip
     code = f"import sys; sys.path.insert(0, {str(ROOT / 'benchmarks')!r}); " \
         f"import bench_fit_old_new as b; b.worker({fits}, {only!r})"  # fmt: skip
     out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tree, check=True,
