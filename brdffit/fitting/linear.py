@@ -116,6 +116,8 @@ def normal_equations(
     if w is None or w.ndim == 1:
         wa = columns if w is None else columns * w[:, None]
         gram = np.broadcast_to(wa.T @ columns, (c, k, k))
+    elif k == 1:  # the same product and matmul, without the pairs' fancy indexing (4 us)
+        gram = (w.T @ (columns * columns)).reshape(c, 1, 1)
     else:
         iu = _upper_triangle(k)
         gram_flat = w.T @ (columns[:, iu[0]] * columns[:, iu[1]])  # (C, P)
