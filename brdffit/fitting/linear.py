@@ -47,7 +47,7 @@ from functools import cache, lru_cache
 
 import numpy as np
 
-from .channels import dot_by_channel
+from .channels import dot_by_channel, einsum
 from .lsi import RIDGE, solve_lsi
 from .lsi import scale as _scale
 
@@ -109,9 +109,9 @@ def normal_equations(
     if columns.ndim == 3:
         wy = y if w is None else y * (w if w.ndim == 2 else w[:, None])
         wa = columns if w is None else columns * (w if w.ndim == 2 else w[:, None])[:, None, :]
-        gram = np.einsum("mkc,mlc->ckl", wa, columns)
-        rhs = np.einsum("mkc,mc->ck", columns, wy)
-        yy = np.einsum("mc,mc->c", wy, y)
+        gram = einsum("mkc,mlc->ckl", wa, columns)
+        rhs = einsum("mkc,mc->ck", columns, wy)
+        yy = einsum("mc,mc->c", wy, y)
         return Normal(gram, rhs, yy)
     if w is None or w.ndim == 1:
         wa = columns if w is None else columns * w[:, None]
@@ -177,10 +177,10 @@ def _box_states(lower: tuple, upper: tuple):
 
 def _objective(normal: Normal, x: np.ndarray) -> np.ndarray:
     """Residual sum of squares x^T G x - 2 x^T b + yWy for x of shape (..., C, K)."""
-    gx = np.einsum("ckl,...cl->...ck", normal.gram, x)
+    gx = einsum("ckl,...cl->...ck", normal.gram, x)
     return (
-        np.einsum("...ck,...ck->...c", x, gx)
-        - 2 * np.einsum("...ck,ck->...c", x, normal.rhs)
+        einsum("...ck,...ck->...c", x, gx)
+        - 2 * einsum("...ck,ck->...c", x, normal.rhs)
         + normal.yy
     )
 
@@ -189,7 +189,7 @@ def _state_objective(normal: Normal, x: np.ndarray) -> np.ndarray:
     """:func:`_objective` of x (S, C, K), its ``G x`` by one batched matmul (an einsum
     over the states costs twice as much); the same sums of K products."""
     gx = np.matmul(normal.gram, x[..., None])[..., 0]
-    return np.einsum("sck,sck->sc", x, gx) - 2 * np.einsum("sck,ck->sc", x, normal.rhs) + normal.yy
+    return einsum("sck,sck->sc", x, gx) - 2 * einsum("sck,ck->sc", x, normal.rhs) + normal.yy
 
 
 def solve_bounded(
@@ -302,7 +302,7 @@ def _enumerate(normal: Normal, lower: np.ndarray, upper: np.ndarray):
     # Reduced system per state: G_ff x_f = b_f - G_fc x_c; solved with a masked
     # matrix (identity on the non-free rows) so that every state is one batch.
     a = np.where(fmask, normal.gram, eye)  # (S, C, K, K)
-    b = normal.rhs - np.einsum("ckl,sl->sck", normal.gram, fixed_val)
+    b = normal.rhs - einsum("ckl,sl->sck", normal.gram, fixed_val)
     np.copyto(b, fixed_val[:, None, :], where=~free[:, None, :])
     # Regularise nearly singular Grams (collinear columns) by a tiny ridge scaled
     # to the Gram's size, so that solve never fails; the feasible check below

@@ -23,6 +23,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from .. import kernels
+from .channels import einsum
 from .losses import LOSSES, LossContext
 
 __all__ = ["BLOCK", "loss_sums"]
@@ -137,8 +138,8 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
 def _row_squares(d: np.ndarray, weights) -> float:
     """``sum_b w_b sum_c d_bc^2`` of ``d`` (B, C)."""
     if weights is None:
-        return float(np.einsum("bc,bc->", d, d))
-    return float(np.einsum("bc,bc,b->", d, d, weights))
+        return float(einsum("bc,bc->", d, d))
+    return float(einsum("bc,bc,b->", d, d, weights))
 
 
 def _block_sums(pred: np.ndarray, ctx: LossContext, names: list) -> dict:
@@ -194,5 +195,5 @@ def _sum_of_squares(d: np.ndarray, weights) -> float:
     if d.ndim == 1:
         d = d[:, None]
     if weights is None:
-        return float(np.einsum("mc,mc->", d, d))
-    return float(np.einsum("mc,mc,m->", d, d, np.asarray(weights, dtype=float)))
+        return float(einsum("mc,mc->", d, d))
+    return float(einsum("mc,mc,m->", d, d, np.asarray(weights, dtype=float)))

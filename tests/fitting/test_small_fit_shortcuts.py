@@ -203,3 +203,16 @@ def test_weights_told_apart_by_their_first_row_are_those_of_the_whole_test(shape
         w = np.ones(shape)
         w[0, -1] = np.nan
         assert solve._same_in_every_channel(w) is bool((w == w[:, :1]).all())
+
+
+@pytest.mark.parametrize("subscripts, shapes", [
+    ("mc,mc->", [(600, 3), (600, 3)]), ("mc,mc,m->", [(600, 3), (600, 3), (600,)]),
+    ("mc,mc->c", [(5000, 31), (5000, 31)]), ("ckl,...cl->...ck", [(3, 2, 2), (7, 3, 2)]),
+    ("sck,ck->sc", [(9, 3, 2), (3, 2)]), ("bc,bc,b->", [(16384, 1), (16384, 1), (16384,)]),
+])  # fmt: skip
+def test_the_fitting_einsum_is_numpy_s(subscripts, shapes):
+    from brdffit.fitting.channels import einsum
+
+    rng = np.random.default_rng(len(subscripts))
+    operands = [rng.standard_normal(shape) * 1e3 for shape in shapes]
+    assert_array_equal(einsum(subscripts, *operands), np.einsum(subscripts, *operands))
