@@ -83,9 +83,9 @@ ORDERS_KEY = "misfit.orders"
 RUNS_SAMPLES = 300_000
 
 
-def _sort_orders(data, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def _sort_orders(data, step: int = 1) -> np.ndarray:
     """Every ``step``-th sample's index (0, 1, ... among them), ordered by
-    ``(theta_h, theta_d)`` and by ``(theta_d, theta_h)``.
+    ``(theta_h, theta_d)`` and by ``(theta_d, theta_h)``, the rows of one (2, n) array.
 
     Stable sorts: ties of both angles keep the samples' order, so the order of a
     subset of the samples is this order with the others left out. Kept as 32-bit
@@ -94,10 +94,13 @@ def _sort_orders(data, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """
     key_h, key_d = (key[::step] for key in _keys(data))
     kind = np.int32 if key_h.size < 2**31 else np.intp
-    return tuple(order.astype(kind, copy=False) for order in _stable_orders(key_h, key_d))
+    by_h, by_d = _stable_orders(key_h, key_d)
+    out = np.empty((2, by_h.size), dtype=kind)
+    out[0], out[1] = by_h, by_d
+    return out
 
 
-def _orders(data, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def _orders(data, step: int = 1) -> np.ndarray:
     """:func:`_sort_orders`, computed once per geometry (and step): they depend on the
     directions only, which a :class:`~brdffit.Measurements` never changes."""
     geometry = getattr(data, "geometry", None)
