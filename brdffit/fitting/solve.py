@@ -210,4 +210,6 @@ def stack_columns(cols, m, c):
         return None
     if any(np.ndim(col) == 2 for col in cols):
         return np.stack([np.broadcast_to(as_2d(col), (m, c)) for col in cols], axis=1)
+    if len(cols) == 1:  # np.stack's new (M, 1) array: a copy of the column as one (2 us)
+        return np.asarray(cols[0]).reshape(-1, 1).copy()
     return np.stack(cols, axis=1)
