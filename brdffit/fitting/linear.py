@@ -43,6 +43,7 @@ Three stages, each only for the channels the previous one left:
 from __future__ import annotations
 
 import itertools
+import math
 from functools import cache, lru_cache
 
 import numpy as np
@@ -219,6 +220,9 @@ def solve_bounded(
     c, k = normal.rhs.shape
     rows = _per_channel(constraints, c)
     x = _unconstrained(normal)
+    few = rows is None and x.size <= FEW and np.shape(lower) == np.shape(upper) == (k,)
+    if few and _inside(x.tolist(), *(np.asarray(b, float).tolist() for b in (lower, upper))):
+        return x, np.maximum(_objective(normal, x), 0.0)  # the usual case, in floats
     todo = ~_feasible(x, lower, upper, rows)  # NaN (a singular Gram) fails every bound
     if not todo.any():  # the usual case near a good fit
         return x, np.maximum(_objective(normal, x), 0.0)
@@ -236,6 +240,18 @@ def solve_bounded(
     if todo.any():
         x[todo] = solve_lsi(_channels(normal, todo), lower, upper, _subset(rows, todo))
     return x, np.maximum(_objective(normal, x), 0.0)
+
+
+#: Coefficients (channels x columns) up to which :func:`_inside` tells the bounds in
+#: floats (its comparisons are :func:`_feasible`'s: 4 us less at every evaluation).
+FEW = 64
+
+
+def _inside(x: list, lower: list, upper: list) -> bool:
+    """:func:`_feasible` without constraints of every row of ``x`` (rows of floats):
+    within the bounds and finite (NaN fails every comparison, as there)."""
+    return all(lo <= v <= hi and abs(v) < math.inf
+               for row in x for v, lo, hi in zip(row, lower, upper))  # fmt: skip
 
 
 def _unconstrained(normal: Normal) -> np.ndarray:

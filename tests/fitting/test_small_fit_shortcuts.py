@@ -216,3 +216,17 @@ def test_the_fitting_einsum_is_numpy_s(subscripts, shapes):
     rng = np.random.default_rng(len(subscripts))
     operands = [rng.standard_normal(shape) * 1e3 for shape in shapes]
     assert_array_equal(einsum(subscripts, *operands), np.einsum(subscripts, *operands))
+
+
+def test_the_bounds_told_in_floats_are_those_of_the_arrays():
+    from brdffit.fitting import linear
+
+    rng = np.random.default_rng(11)
+    lower, upper = np.array([0.0, 0.0, -1.0]), np.array([1.0, np.inf, 1.0])
+    special = [0.0, -0.0, 1.0, -1.0, np.inf, -np.inf, np.nan, 1e-300, -1e-300, 1.0 + 2e-16]
+    for _ in range(400):
+        c = int(rng.integers(1, 5))
+        x = rng.uniform(-0.2, 1.2, (c, 3))
+        x[rng.random((c, 3)) < 0.2] = rng.choice(special)
+        want = bool(linear._feasible(x, lower, upper, None).all())
+        assert linear._inside(x.tolist(), lower.tolist(), upper.tolist()) is want
