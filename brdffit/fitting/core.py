@@ -30,6 +30,7 @@ import numpy as np
 from ..data.measurements import Measurements
 from ..errors import DataError, FitError, under_option
 from ..models import get_model
+from . import sums
 from .energy import enforce_energy
 from .engine import CONVERGED, FitProgress, StopFit, reason, search
 from .losses import LossContext
@@ -275,7 +276,8 @@ def _result(
         )
     params = problem.params_of(found.best)
     data = problem.data
-    y = np.asarray(data.values)
+    y = np.asarray(data.values)  # a table's columns: row by row for one block of metrics
+    y = np.ascontiguousarray(y) if y.size <= sums.VALUES else y  # (the same values)
     ctx = LossContext(cos_i=np.maximum(data.wi[:, 2], 0.0), y=y, sigma=data.sigma, weights=None)
     n_params = problem.dim + len(problem.free_coefs) * problem.n_channels
     pred = problem.predict(params)  # held while exact_loss shares it (Problem.predict)
