@@ -176,9 +176,9 @@ def _from_metrics(problem, result, n_params: int, pred=None) -> dict | None:
     pred = problem.predict(dict(result.params)) if pred is None else pred
     values = np.asarray(data.values, dtype=float)
     if name == "chi2":
-        z = np.subtract(pred[::step], values[::step])
-        z /= np.asarray(data.sigma)[::step]
-        codes, squares = _sign_codes(z), result.metrics["chi2"]
+        z = np.subtract(pred[::step].T, values[::step].T)  # (C, N): a table's columns
+        z /= np.asarray(data.sigma)[::step].T  # are rows (the same values, signs)
+        codes, squares = _sign_codes(z.T), result.metrics["chi2"]
     else:  # the signs of pred - values (in one compiled pass on large data)
         codes = _residual_signs(pred, values, step)
         squares = result.metrics["l2"] * result.n_values
