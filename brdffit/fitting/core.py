@@ -23,12 +23,14 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import replace
 from time import perf_counter
+from types import SimpleNamespace
 
 import numpy as np
 
 from ..data.measurements import Measurements
 from ..errors import DataError, FitError, under_option
 from ..models import get_model
+from . import sums
 from .energy import enforce_energy
 from .engine import CONVERGED, FitProgress, StopFit, reason, search
 from .losses import LossContext
@@ -102,8 +104,10 @@ def fit(data, model, **options) -> FitResult:
     # An energy-conserving fit: checked, and polished again where albedo passes 1.
     problem, found, code, energy = enforce_energy(problem, found, code, opts, t0)
     problem.let_go()  # the search's inputs go before the checks form their arrays
-    result, pred = _result(problem, found, code, opts, perf_counter() - t0, energy)
-    result = replace(result, **assess(problem, result, noise))
+    fields, pred = _result(problem, found, code, opts, perf_counter() - t0, energy)
+    # the checks' fields join the result's before it is built, once
+    fields.update(assess(problem, SimpleNamespace(**fields), noise, pred))
+    result = FitResult(**fields)
     # The fitted prediction (shared by the metrics and the misfit verdict) and the
     # problem go before a refit builds its own (a MERL file's peak: 130 MB less).
     del pred, problem, found
@@ -193,11 +197,11 @@ def _check_signal(data: Measurements) -> None:
             "stay finite and normal in double precision); rescale the values",
             "values",
         )
-    if data.sigma is not None:
-        ratio = np.asarray(data.sigma, dtype=float) / top
+    if data.sigma is not None:  # the least and largest sigma / top: those of sigma over
+        sigma = np.asarray(data.sigma, dtype=float)  # it (a division rounds monotonically)
         for bad, limit, why in (
-            (ratio.min() < SIGMA_RANGE[0], "min", "the weights 1/sigma^2 would overflow"),
-            (ratio.max() > SIGMA_RANGE[1], "max", "the weights 1/sigma^2 would underflow"),
+            (sigma.min() / top < SIGMA_RANGE[0], "min", "the weights 1/sigma^2 would overflow"),
+            (sigma.max() / top > SIGMA_RANGE[1], "max", "the weights 1/sigma^2 would underflow"),
         ):
             if bad:
                 sigma = float(getattr(np.asarray(data.sigma), limit)())
@@ -256,23 +260,24 @@ def _at_bounds(problem: Problem, x: np.ndarray, params: Mapping) -> tuple:
         if p.name in problem.fixed:
             continue
         low, high = linear_at_bounds(p, params[p.name])
-        if np.any(low) or np.any(high):
+        if low.any() or high.any():
             out.append(p.name)
     return tuple(out)
 
 
 def _result(
     problem: Problem, found, code, opts: FitOptions, seconds: float, energy=None
-) -> tuple[FitResult, np.ndarray]:
-    """The FitResult of the search's best point, and the prediction there (N, C), which
-    :meth:`Problem.predict` gives to later callers while it is held."""
+) -> tuple[dict, np.ndarray]:
+    """The fields of the FitResult of the search's best point, and the prediction there
+    (N, C), which :meth:`Problem.predict` gives to later callers while it is held."""
     if found.best is None:
         raise FitError(
             "the fit stopped before its first evaluation (timeout or max_evals)", "timeout"
         )
     params = problem.params_of(found.best)
     data = problem.data
-    y = np.asarray(data.values)
+    y = np.asarray(data.values)  # a table's columns: row by row for one block of metrics
+    y = np.ascontiguousarray(y) if y.size <= sums.VALUES else y  # (the same values)
     ctx = LossContext(cos_i=np.maximum(data.wi[:, 2], 0.0), y=y, sigma=data.sigma, weights=None)
     n_params = problem.dim + len(problem.free_coefs) * problem.n_channels
     pred = problem.predict(params)  # held while exact_loss shares it (Problem.predict)
@@ -280,11 +285,11 @@ def _result(
     # The l2 loss without weights is the l2 metric (the same sum over every value, the
     # pairs below the horizon predicted 0): not summed a second time (3.3 M on MERL).
     unweighted_l2 = problem.loss.name == "l2" and problem.user_weights is None
-    loss = metrics["l2"] if unweighted_l2 else problem.exact_loss(params)
+    loss = metrics["l2"] if unweighted_l2 else problem.exact_loss(params, pred)
     converged = code in CONVERGED and found.best.loss < BAD_LOSS and not found.stopped
     at_bounds = _at_bounds(problem, found.best_x if problem.dim else (), params)
     deadline = None if opts.timeout is None else (perf_counter() - seconds) + opts.timeout
-    unidentified = _unidentified(problem, params, deadline)
+    unidentified = _unidentified(problem, params, deadline, pred)
     message = ("converged: " if converged else "not converged: ") + (found.stopped or reason(code))
     if at_bounds:
         message += "; at a bound of its range: " + ", ".join(at_bounds)
@@ -295,7 +300,7 @@ def _result(
     if energy is not None:
         metrics["max_albedo"] = energy.top
         message += energy.note()
-    result = FitResult(
+    fields = dict(
         model=problem.model.name,
         params=params,
         loss=loss,
@@ -316,15 +321,16 @@ def _result(
         weights=opts.weights,
         unidentified=unidentified,
     )
-    return result, pred
+    return fields, pred
 
 
-def _unidentified(problem: Problem, params: Mapping, deadline=None) -> dict:
+def _unidentified(problem: Problem, params: Mapping, deadline=None, pred=None) -> dict:
     """The parameters the data do not constrain, with why
-    (:mod:`brdffit.fitting.identifiability`); none where the check cannot be made."""
+    (:mod:`brdffit.fitting.identifiability`, given the fit's prediction ``pred``); none
+    where the check cannot be made."""
     from .identifiability import unidentified
 
     try:
-        return unidentified(problem, params, deadline)
+        return unidentified(problem, params, deadline, pred)
     except (np.linalg.LinAlgError, FloatingPointError, ValueError):
         return {}

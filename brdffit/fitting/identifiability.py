@@ -50,7 +50,11 @@ from dataclasses import fields, replace
 
 import numpy as np
 
-from .information import channel_information, coefficient_diagonal, null_and_variance
+from .information import (
+    channel_information,
+    coefficient_diagonal,
+    judge,
+)
 from .problem import linear_at_bounds
 from .schedule import seeded_rows
 
@@ -84,7 +88,7 @@ NORMAL_INCIDENCE = 1.0
 SAME_AZIMUTH = 1.0
 
 
-def unidentified(problem, params, deadline=None) -> dict:
+def unidentified(problem, params, deadline=None, pred=None) -> dict:
     """Name -> reason for every free parameter of a fit that the data do not constrain.
 
     Parameters
@@ -96,6 +100,8 @@ def unidentified(problem, params, deadline=None) -> dict:
     deadline : float, optional
         A ``time.perf_counter()`` time (the fit's timeout): the Fisher check stops
         there (plus :data:`GRACE` seconds) and names nothing.
+    pred : ndarray (N, C), optional
+        The fit's prediction at ``params`` (:meth:`Problem.predict`): not evaluated again.
 
     Returns
     -------
@@ -104,7 +110,7 @@ def unidentified(problem, params, deadline=None) -> dict:
     """
     out: dict[str, list] = {}
     try:
-        fisher = _fisher(problem, dict(params), deadline)
+        fisher = _fisher(problem, dict(params), deadline, pred)
     except _Late:
         fisher = {}
     for name, why in [*_azimuth_coverage(problem).items(), *fisher.items()]:
@@ -175,19 +181,26 @@ MAX_ENTRIES = 4_000_000
 MAX_ROWS = 50_000
 
 
-def _fisher(problem, params: dict, deadline=None) -> dict:
-    """Unidentified parameters by the rank of the Fisher information and the widths."""
+def _fisher(problem, params: dict, deadline=None, pred=None) -> dict:
+    """Unidentified parameters by the rank of the Fisher information and the widths
+    (``pred``, the fit's values at ``params``, where they are the check's own)."""
+    quick = _coefficients_only(problem, params, pred)
+    if quick is not None:
+        return quick
     if deadline is not None:
         deadline = max(deadline, time.perf_counter()) + GRACE
-    params = _at_their_bounds(problem, params)
+    snapped = _at_their_bounds(problem, params)
     rows = _rows(problem)
     geometry = _geometry(problem, rows)
-    base = _predict(problem, params, geometry)
-    ctx = _context(problem, rows)
+    whole = len(rows) == problem.geometry.m and problem.geometry.all_valid
+    same = pred is not None and whole and all(v is params[k] for k, v in snapped.items())
+    base = pred if same else _predict(problem, snapped, geometry) if _reads(problem) else None
+    params, ctx = snapped, _context(problem, rows)
     unit = problem.loss.name == "l2" and ctx.weights is None  # weights of ones: none
-    w, target = (None, ctx.y) if unit else problem.loss.linearised(base, ctx)
-    if not unit and np.shape(w) != base.shape:  # (broadcast_to of its shape: 3 us for nothing)
-        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], base.shape)
+    ref = ctx.y if base is None else base  # a linear loss's weights read only its shape
+    w, target = (None, ctx.y) if unit else problem.loss.linearised(ref, ctx)
+    if not unit and np.shape(w) != ref.shape:  # (broadcast_to of its shape: 3 us for nothing)
+        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], ref.shape)
     names, kinds, sources, layout = _jacobian(problem, params, geometry, base, deadline)
     if not layout:
         return {}
@@ -195,15 +208,57 @@ def _fisher(problem, params: dict, deadline=None) -> dict:
     info = coefficient_diagonal(sources, layout, sqrt_w)
     info = channel_information(sources, layout, sqrt_w) if info is None else info
     info *= problem.geometry.m / len(rows)
-    dof = max(base.size * problem.geometry.m / len(rows) - len(names), 1.0)
-    d = np.subtract(target, base)
-    if problem.loss.needs_sigma:
-        s2 = 1.0
-    elif unit:
-        s2 = float(np.einsum("mc,mc->", d, d)) / dof
-    else:
-        s2 = float(np.einsum("mc,mc,mc->", w, d, d)) / dof
+    dof = max(ref.size * problem.geometry.m / len(rows) - len(names), 1.0)
+    s2 = 1.0  # with sigma; else the residual variance
+    if not problem.loss.needs_sigma:
+        d = np.subtract(target, base)
+        s2 = float(np.einsum("mc,mc->", d, d) if unit else np.einsum("mc,mc,mc->", w, d, d)) / dof
     return _judge(names, kinds, info / max(s2, 1e-300), params)
+
+
+def _coefficients_only(problem, params: dict, pred) -> dict | None:
+    """:func:`_fisher`'s operations for one linear parameter's coefficients alone (lambert's
+    kd; its design column, every sample, none at a bound, a linear loss, residuals from
+    ``pred``) on the same arrays, without the general steps' copies; else None."""
+    model, loss, m, c = problem.model, problem.loss, problem.geometry.m, problem.n_channels
+    free = [p for p in model.linear_params if p.name not in problem.fixed]
+    exact = EXACT_COEFFICIENTS and model.to_coefficients is None
+    if problem.dim or len(free) != 1 or not (exact and loss.linear) or len(_rows(problem)) != m:
+        return None
+    p, ctx = free[0], problem.ctx
+    low, high = linear_at_bounds(p, params[p.name])
+    whole = pred is not None and problem.geometry.all_valid  # pred: the check's own values
+    if low.any() or high.any() or not (loss.needs_sigma or whole):
+        return None  # held at a bound, or values to evaluate: _fisher's steps
+    value = np.asarray(params[p.name], dtype=float)
+    values = (value if value.shape == (c,) else np.broadcast_to(value, (c,))).tolist()
+    inside = [i for i, v in enumerate(values) if p.lower < v < p.upper]
+    if not inside:
+        return {}
+    names = [p.name if c == 1 else f"{p.name}[{problem.data.channels[i]}]" for i in inside]
+    unit = loss.name == "l2" and ctx.weights is None
+    w, target = (None, ctx.y) if unit else loss.linearised(ctx.y, ctx)  # reads its shape
+    if not unit and np.shape(w) != ctx.y.shape:
+        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], ctx.y.shape)
+    column = _design(problem, params, problem.geometry).columns[model.coefficients.index(p.name)]
+    column = np.asarray(column, float)
+    column = column if column.ndim == 2 else column[..., None]  # times sqrt_w: its values
+    source = np.broadcast_to(column, (m, c)) if unit else column  # (a broadcast: 5 us)
+    info = coefficient_diagonal([source], [(0, i) for i in inside], None if unit else np.sqrt(w))
+    if info is None:
+        return None
+    s2 = 1.0  # with sigma; else the residual variance
+    if not loss.needs_sigma:
+        d, dof = np.subtract(target, pred), max(float(ctx.y.size - len(names)), 1.0)
+        s2 = float(np.einsum("mc,mc->", d, d) if unit else np.einsum("mc,mc,mc->", w, d, d)) / dof
+    return _judge(names, ["coef"] * len(names), info / max(s2, 1e-300), params)
+
+
+def _reads(problem) -> bool:
+    """Whether the check reads the model's values at the fit (differences, a loss
+    linearised there, the residual variance without sigma)."""
+    loss, exact = problem.loss, EXACT_COEFFICIENTS and problem.model.to_coefficients is None
+    return bool(problem.dim) or not exact or not loss.linear or not loss.needs_sigma
 
 
 def _rows(problem) -> np.ndarray:
@@ -307,7 +362,8 @@ def _coefficient_columns(problem, params, geometry, base, p, deadline, design=No
         return None
     if design is not None:  # the model is linear in it: its column is the derivative
         column = np.asarray(design.columns[problem.model.coefficients.index(p.name)], float)
-        diff = np.broadcast_to(column if column.ndim == 2 else column[..., None], base.shape)
+        shape = (geometry.m, problem.n_channels)  # base's: None where not read (_reads)
+        diff = np.broadcast_to(column if column.ndim == 2 else column[..., None], shape)
     else:
         h = np.where(value + 1e-3 * span < p.upper, 1e-3 * span, -1e-3 * span) * inside
         shifted = value + h
@@ -332,69 +388,13 @@ def _at_their_bounds(problem, params: dict) -> dict:
         if p.name in problem.fixed:
             continue
         low, high = linear_at_bounds(p, params[p.name])
-        snapped = np.where(low, p.lower, np.where(high, p.upper, params[p.name]))
-        out[p.name] = float(snapped) if snapped.ndim == 0 else snapped
+        if low.any() or high.any():  # else the value itself (np.where's values)
+            snapped = np.where(low, p.lower, np.where(high, p.upper, params[p.name]))
+            out[p.name] = float(snapped) if snapped.ndim == 0 else snapped
     return out
 
 
 def _judge(names, kinds, info, params) -> dict:
-    """Null directions of the unit-diagonal information (its diagonal where it is
-    diagonal: ``coefficient_diagonal``), then the shape widths."""
-    out, diagonal = {}, info.ndim == 1 and np.isfinite(info).all()  # else as a matrix:
-    info = np.diag(info) if info.ndim == 1 and not diagonal else info  # the plain way's
-    scale = np.sqrt(info if diagonal else np.diag(info))
-    dead = scale <= 1e-300 * max(scale.max(), 1e-300)
-    for i in np.flatnonzero(dead):
-        out[names[i]] = "the fitted model does not change with it at the data's directions"
-    live = np.flatnonzero(~dead)
-    if live.size == 0:
-        return _by_parameter(out)
-    # a diagonal one's entries are the plain way's (its others are 0)
-    unit = (info[live] / (scale[live] * scale[live]) if diagonal
-            else info[np.ix_(live, live)] / np.outer(scale[live], scale[live]))  # fmt: skip
-    null_sets, variance = null_and_variance(unit, RANK_RTOL)
-    for positions in null_sets:
-        involved = [live[i] for i in positions]
-        for i in involved:
-            others = [names[j] for j in involved if j != i]
-            out.setdefault(
-                names[i],
-                "the data do not separate it from "
-                + (", ".join(others) or "nothing")
-                + " (their combination leaves the fit unchanged: the Fisher information is "
-                "singular)",
-            )
-    for pos, i in enumerate(live):
-        if names[i] in out or kinds[i] == "coef":
-            continue
-        sd = math.sqrt(max(variance[pos], 0.0)) / scale[i]
-        value = float(params[names[i]])
-        width = math.log(10.0) * sd if kinds[i] == "log" else sd / max(abs(value), 1e-300)
-        if width <= MAX_RELATIVE_WIDTH:
-            continue
-        if kinds[i] == "log":
-            spread = f"a relative width of {width:.3g}"
-        else:  # at or near 0 a relative width says nothing (it was printed as 1e+297)
-            spread = f"{value:.3g} +- {sd:.3g}, a relative width above {MAX_RELATIVE_WIDTH:g}"
-        out[names[i]] = (
-            f"the data constrain it only to {spread} (1 sigma, from the Fisher information)"
-        )
-    return _by_parameter(out)
-
-
-def _by_parameter(out: dict) -> dict:
-    """Per-channel entries (``kd[r]``) gathered under their parameter's name."""
-    merged: dict = {}
-    for name, why in out.items():
-        base, bracket, channel = name.partition("[")
-        if bracket:
-            merged.setdefault(base, {}).setdefault(why, []).append(channel.rstrip("]"))
-        else:
-            merged[name] = {why: []}
-    return {
-        name: "; ".join(
-            why if not channels else f"channel(s) {', '.join(channels)}: {why}"
-            for why, channels in reasons.items()
-        )
-        for name, reasons in merged.items()
-    }
+    """:func:`~brdffit.fitting.information.judge` at :data:`RANK_RTOL` and
+    :data:`MAX_RELATIVE_WIDTH`."""
+    return judge(names, kinds, info, params, RANK_RTOL, MAX_RELATIVE_WIDTH)

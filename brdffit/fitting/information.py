@@ -25,15 +25,19 @@ of its cost for 63 parameters.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .channels import dot_by_channel
 
 __all__ = [
     "CERTIFY_MARGIN",
+    "by_parameter",
     "channel_information",
     "coefficient_diagonal",
     "inverse_diagonal",
+    "judge",
     "null_and_variance",
 ]
 
@@ -155,3 +159,105 @@ def _diagonal_inverse(diagonal: np.ndarray, rtol: float) -> np.ndarray | None:
     if not np.isfinite(total) or total * CERTIFY_MARGIN * rtol * len(diagonal) > 1.0:
         return None
     return inverse
+
+
+def by_parameter(out: dict) -> dict:
+    """The identifiability check's reasons by name, its per-channel entries (``kd[r]``)
+    gathered under their parameter's name."""
+    merged: dict = {}
+    for name, why in out.items():
+        base, bracket, channel = name.partition("[")
+        if bracket:
+            merged.setdefault(base, {}).setdefault(why, []).append(channel.rstrip("]"))
+        else:
+            merged[name] = {why: []}
+    return {
+        name: "; ".join(
+            why if not channels else f"channel(s) {', '.join(channels)}: {why}"
+            for why, channels in reasons.items()
+        )
+        for name, reasons in merged.items()
+    }
+
+
+def judge(names, kinds, info, params, rtol: float, max_width: float) -> dict:
+    """The identifiability check's verdicts (:mod:`brdffit.fitting.identifiability`):
+    null directions (eigenvalues below ``rtol`` of the largest) of the unit-diagonal
+    information ``info`` (its diagonal where it is diagonal: ``coefficient_diagonal``),
+    then the shape parameters' relative widths above ``max_width``. A diagonal one of
+    coefficients alone (no width to judge) is answered in floats where it can be
+    (:func:`_coefficients_dead`: the same operations, so the same verdicts)."""
+    if info.ndim == 1 and len(info) < 8 and all(kind == "coef" for kind in kinds):
+        dead = _coefficients_dead(info.tolist(), rtol)
+        if dead is not None:
+            return by_parameter(dict.fromkeys([names[i] for i in dead], DEAD))
+    out, diagonal = {}, info.ndim == 1 and np.isfinite(info).all()  # else as a matrix:
+    info = np.diag(info) if info.ndim == 1 and not diagonal else info  # the plain way's
+    scale = np.sqrt(info if diagonal else np.diag(info))
+    dead = scale <= 1e-300 * max(scale.max(), 1e-300)
+    for i in np.flatnonzero(dead):
+        out[names[i]] = DEAD
+    live = np.flatnonzero(~dead)
+    if live.size == 0:
+        return by_parameter(out)
+    # a diagonal one's entries are the plain way's (its others are 0)
+    unit = (info[live] / (scale[live] * scale[live]) if diagonal
+            else info[np.ix_(live, live)] / np.outer(scale[live], scale[live]))  # fmt: skip
+    null_sets, variance = null_and_variance(unit, rtol)
+    for positions in null_sets:
+        involved = [live[i] for i in positions]
+        for i in involved:
+            others = [names[j] for j in involved if j != i]
+            out.setdefault(
+                names[i],
+                "the data do not separate it from "
+                + (", ".join(others) or "nothing")
+                + " (their combination leaves the fit unchanged: the Fisher information is "
+                "singular)",
+            )
+    for pos, i in enumerate(live):
+        if names[i] in out or kinds[i] == "coef":
+            continue
+        sd = math.sqrt(max(variance[pos], 0.0)) / scale[i]
+        value = float(params[names[i]])
+        width = math.log(10.0) * sd if kinds[i] == "log" else sd / max(abs(value), 1e-300)
+        if width <= max_width:
+            continue
+        if kinds[i] == "log":
+            spread = f"a relative width of {width:.3g}"
+        else:  # at or near 0 a relative width says nothing (it was printed as 1e+297)
+            spread = f"{value:.3g} +- {sd:.3g}, a relative width above {max_width:g}"
+        out[names[i]] = (
+            f"the data constrain it only to {spread} (1 sigma, from the Fisher information)"
+        )
+    return by_parameter(out)
+
+
+#: The verdict on a parameter whose column of the Jacobian is zero.
+DEAD = "the fitted model does not change with it at the data's directions"
+
+
+def _coefficients_dead(values: list, rtol: float) -> list | None:
+    """:func:`judge`'s dead positions of a diagonal information ``values`` whose every
+    column is a coefficient, by the operations of its arrays on floats (square roots,
+    the dead test, the unit entries and :func:`_diagonal_inverse`'s proof); None where
+    judge's arrays decide (a value not finite and >= 0, a unit entry not finite and positive, or
+    the proof failing). The proof's sum is taken in another order than numpy's, which
+    cannot change it: every unit entry is 1 to rounding, the sum about its count (at
+    most 7), far below the ``1 / (CERTIFY_MARGIN rtol P)`` it is held to."""
+    if not all(math.isfinite(v) and v >= 0 for v in values):  # sums of squares
+        return None
+    scale = [math.sqrt(v) for v in values]
+    floor = 1e-300 * max(max(scale), 1e-300)
+    dead, total, live = [], 0.0, 0
+    for i, (v, s) in enumerate(zip(values, scale)):
+        if s <= floor:
+            dead.append(i)
+            continue
+        unit = v / (s * s)
+        if not (math.isfinite(unit) and unit > 0):
+            return None
+        total, live = total + 1.0 / unit, live + 1
+    if live and (not math.isfinite(total) or total * CERTIFY_MARGIN * rtol * live > 1.0):
+        return None
+    return dead

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import FitError
-from .channels import abs_max_by_channel
+from .channels import abs_max_by_channel, einsum
 
 __all__ = ["LOSSES", "Loss", "LossContext", "get_loss"]
 
@@ -94,7 +94,7 @@ class Loss:
         d = self.transform(pred, ctx) - self.target(ctx)
         if ctx.weights is None:
             d = d.reshape(len(d), -1)
-            total = float(np.einsum("mc,mc->", d, d))  # no squared copy (26 MB on MERL)
+            total = float(einsum("mc,mc->", d, d))  # no squared copy (26 MB on MERL)
         else:
             d2 = d * d
             d2 *= ctx.weights[:, None]
@@ -195,8 +195,12 @@ def _divided_by(scale: Callable[[LossContext], np.ndarray]):
 def _inverse(s: np.ndarray, f) -> np.ndarray:
     """``1 / s`` in the shape of ``ones_like(f) / s``, without the array of ones (a
     MERL file's mixed loss forms this for 3.3 M values at every reweighting)."""
-    inverse, shape = 1.0 / s, np.broadcast_shapes(np.shape(f), np.shape(s))
-    if isinstance(inverse, np.ndarray) and inverse.shape == shape:
+    inverse = 1.0 / s
+    mine = isinstance(inverse, np.ndarray)
+    if mine and inverse.shape == np.shape(f):  # s's shape is f's: their broadcast (3 us)
+        return inverse
+    shape = np.broadcast_shapes(np.shape(f), np.shape(s))
+    if mine and inverse.shape == shape:
         return inverse  # already that shape: a new array of its own (broadcast_to: 3 us)
     return np.broadcast_to(inverse, shape)
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from functools import lru_cache
 from statistics import NormalDist
 
 import numpy as np
@@ -82,9 +83,9 @@ ORDERS_KEY = "misfit.orders"
 RUNS_SAMPLES = 300_000
 
 
-def _sort_orders(data, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def _sort_orders(data, step: int = 1) -> np.ndarray:
     """Every ``step``-th sample's index (0, 1, ... among them), ordered by
-    ``(theta_h, theta_d)`` and by ``(theta_d, theta_h)``.
+    ``(theta_h, theta_d)`` and by ``(theta_d, theta_h)``, the rows of one (2, n) array.
 
     Stable sorts: ties of both angles keep the samples' order, so the order of a
     subset of the samples is this order with the others left out. Kept as 32-bit
@@ -93,10 +94,13 @@ def _sort_orders(data, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """
     key_h, key_d = (key[::step] for key in _keys(data))
     kind = np.int32 if key_h.size < 2**31 else np.intp
-    return tuple(order.astype(kind, copy=False) for order in _stable_orders(key_h, key_d))
+    by_h, by_d = _stable_orders(key_h, key_d)
+    out = np.empty((2, by_h.size), dtype=kind)
+    out[0], out[1] = by_h, by_d
+    return out
 
 
-def _orders(data, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def _orders(data, step: int = 1) -> np.ndarray:
     """:func:`_sort_orders`, computed once per geometry (and step): they depend on the
     directions only, which a :class:`~brdffit.Measurements` never changes."""
     geometry = getattr(data, "geometry", None)
@@ -130,13 +134,14 @@ def _verdict(data, codes, step, n, squares, count, n_params, chi2_known) -> dict
     """:func:`misfit_test`'s record from the sign ``codes`` (C, N / step) of every
     ``step``-th of the ``n`` samples and the sum of ``squares`` of the ``count``
     standardised residuals of the samples kept."""
-    best = (-np.inf, 1.0, "theta_h")
-    for name, order in zip(("theta_h", "theta_d"), _orders(data, step)):
-        runs, expected, stat = _runs(np.take(codes, order, axis=1))
-        i = int(np.argmax(stat))
-        if stat[i] > best[0]:
-            best = (float(stat[i]), float(runs[i] / max(expected[i], 1.0)), name)
-    threshold = _upper_quantile(ALPHA / (2 * len(codes)))
+    # both orders' rows (theta_h's channels, then theta_d's) counted in one call: the
+    # first largest z is the one the orders' loop kept (a later order's only if larger)
+    c = len(codes)
+    both = np.take(codes, _orders(data, step), axis=1).swapaxes(0, 1).reshape(2 * c, -1)
+    runs, expected, stat = _runs(both)
+    i = int(np.argmax(stat))
+    best = (float(stat[i]), float(runs[i] / max(expected[i], 1.0)), ("theta_h", "theta_d")[i // c])
+    threshold = _upper_quantile(ALPHA / (2 * c))
     dof = max(count - n_params, 1)
     reduced = squares / dof
     chi2_bad = chi2_known and reduced > 1.0 + _upper_quantile(ALPHA) * math.sqrt(2.0 / dof)
@@ -155,7 +160,7 @@ def _verdict(data, codes, step, n, squares, count, n_params, chi2_known) -> dict
     }
 
 
-def _from_metrics(problem, result, n_params: int) -> dict | None:
+def _from_metrics(problem, result, n_params: int, pred=None) -> dict | None:
     """:func:`misfit_test` of an unweighted ``l2`` fit (or ``chi2`` on the data's sigma)
     without its residuals on every sample: their sum of squares is the fit's metric
     (``l2`` times the values, or ``chi2``), and the runs test's signs those of
@@ -168,17 +173,19 @@ def _from_metrics(problem, result, n_params: int) -> dict | None:
         return None
     n = data.n
     step = max(1, -(-n // RUNS_SAMPLES))
-    pred, values = problem.predict(dict(result.params)), np.asarray(data.values, dtype=float)
+    pred = problem.predict(dict(result.params)) if pred is None else pred
+    values = np.asarray(data.values, dtype=float)
     if name == "chi2":
-        z = np.subtract(pred[::step], values[::step])
-        z /= np.asarray(data.sigma)[::step]
-        codes, squares = _sign_codes(z), result.metrics["chi2"]
+        z = np.subtract(pred[::step].T, values[::step].T)  # (C, N): a table's columns
+        z /= np.asarray(data.sigma)[::step].T  # are rows (the same values, signs)
+        codes, squares = _sign_codes(z.T), result.metrics["chi2"]
     else:  # the signs of pred - values (in one compiled pass on large data)
         codes = _residual_signs(pred, values, step)
         squares = result.metrics["l2"] * result.n_values
     return _verdict(data, codes, step, n, squares, result.n_values, n_params, name == "chi2")
 
 
+@lru_cache(maxsize=64)  # the same few levels at every fit: 2 us each
 def _upper_quantile(p: float) -> float:
     """The ``N(0, 1)`` quantile exceeded with probability ``p`` (``scipy.stats.norm.isf``,
     ``-ndtri(p)``), by the standard library's ``NormalDist`` (Wichura's algorithm AS241,
@@ -230,13 +237,14 @@ def standardised(problem, params, noise) -> tuple[np.ndarray, np.ndarray]:
     return np.subtract(transformed, loss.transform(y, ctx), out=out), keep
 
 
-def assess(problem, result, noise) -> dict:
+def assess(problem, result, noise, pred=None) -> dict:
     """The fields a fit adds for its noise model and misfit verdict: ``noise``,
     ``misfit``, ``metrics`` (AIC and BIC with the fit's own likelihood) and the
-    ``message`` with the verdict when misfit is found."""
+    ``message`` with the verdict when misfit is found (``result``: a FitResult or its
+    fields; ``pred``: :meth:`Problem.predict` at its params, when the caller holds it)."""
     params = dict(result.params)
     k = result.n_params + (2 if noise is not None else 0)
-    misfit = _from_metrics(problem, result, k) if noise is None else None
+    misfit = _from_metrics(problem, result, k, pred) if noise is None else None
     z = None  # the residuals on every sample: formed where the verdict needs them
     if misfit is None:
         z, keep = standardised(problem, params, noise)

@@ -323,10 +323,11 @@ class Problem:
         key = ("constant_column", float(col))
         return self.geometry.cached(key, lambda: np.full(self.geometry.m, float(col)))
 
-    def exact_loss(self, params: Mapping) -> float:
+    def exact_loss(self, params: Mapping, pred=None) -> float:
         """The loss at full params from the formed residuals (no normal-equation
-        round-off), with the user's weights, as the objective defines it."""
-        pred = self.predict(params)
+        round-off), with the user's weights, as the objective defines it (``pred``:
+        :meth:`predict` at them, where the caller holds it)."""
+        pred = self.predict(params) if pred is None else pred
         if not self.geometry.all_valid:
             pred = pred[self.geometry.valid]
         total = self.loss.value(pred, self.ctx) * self.loss.norm(self.ctx) + self.invalid_loss

@@ -109,7 +109,7 @@ def residual_signs(pred: np.ndarray, values: np.ndarray, step: int) -> np.ndarra
         f, y = np.ascontiguousarray(pred, dtype=float), np.ascontiguousarray(values, dtype=float)
         loops_runs.sign_codes_every(f, y, step, codes)
         return codes
-    return sign_codes(np.subtract(pred[::step], values[::step]))
+    return sign_codes(np.subtract(pred[::step].T, values[::step].T).T)  # (C, N) rows
 
 
 def sign_codes(z: np.ndarray) -> np.ndarray:

@@ -192,6 +192,9 @@ def compact_weights(w: np.ndarray, z: np.ndarray):
 def _same_in_every_channel(w: np.ndarray) -> bool:
     """Whether every row of ``w`` (M, C) holds one value; the first rows are compared
     first (weights that differ by channel, as the log loss's, differ there at once)."""
+    first = w[0].tolist() if len(w) else []  # chi2's and log's differ in the first row:
+    if any(v != first[0] for v in first):  # its floats (NaN != NaN, as == fails below)
+        return False
     head = w[:64]  # (a == a[:, :1]).all() is np.array_equal of the broadcast, 4 us less
     if not (head == head[:, :1]).all():
         return False
@@ -207,4 +210,6 @@ def stack_columns(cols, m, c):
         return None
     if any(np.ndim(col) == 2 for col in cols):
         return np.stack([np.broadcast_to(as_2d(col), (m, c)) for col in cols], axis=1)
+    if len(cols) == 1:  # np.stack's new (M, 1) array: a copy of the column as one (2 us)
+        return np.asarray(cols[0]).reshape(-1, 1).copy()
     return np.stack(cols, axis=1)

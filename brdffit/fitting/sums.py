@@ -23,6 +23,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from .. import kernels
+from .channels import einsum
 from .losses import LOSSES, LossContext
 
 __all__ = ["BLOCK", "loss_sums"]
@@ -61,11 +62,11 @@ def loss_sums(pred: np.ndarray, ctx: LossContext) -> dict:
         pred, y = pred[:, None], y.reshape(len(y), -1)
     if kernels.wanted(len(y), modules=("loops_sums",)):  # samples, as models count pairs
         return _compiled(pred, y, ctx, names)
-    whole = _whole(ctx, names)
     if 0 < len(y) <= max(1, VALUES // y.shape[1]):  # one block: _by_blocks' sums, 10 us less
-        sums = _block_sums(pred, whole, names)  # (a block's slices are the whole arrays)
+        # (a block's slices are the whole arrays, its y_scale the context's own)
+        sums = _block_sums(pred, ctx if ctx.y is y else _whole(ctx, names), names)
         return {name: sums[name] for name in [*names, "rss"]}
-    return _by_blocks(pred, y, ctx, whole, names)
+    return _by_blocks(pred, y, ctx, _whole(ctx, names), names)
 
 
 def _names(ctx: LossContext) -> list:
@@ -137,39 +138,46 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
 def _row_squares(d: np.ndarray, weights) -> float:
     """``sum_b w_b sum_c d_bc^2`` of ``d`` (B, C)."""
     if weights is None:
-        return float(np.einsum("bc,bc->", d, d))
-    return float(np.einsum("bc,bc,b->", d, d, weights))
+        return float(einsum("bc,bc->", d, d))
+    return float(einsum("bc,bc,b->", d, d, weights))
 
 
 def _block_sums(pred: np.ndarray, ctx: LossContext, names: list) -> dict:
     """The sums of one block, in four arrays of its size (each op writes into one: fresh
-    temporaries of a 31-band fit's 44,600 values cost page faults, 1 us each 4 KB)."""
-    resid = np.subtract(pred, ctx.y)
+    temporaries of a 31-band fit's 44,600 values cost page faults, 1 us each 4 KB): the
+    residual and a scratch array, then ``f cos`` and ``y cos`` in the same two, whose
+    log and cbrt terms are formed for both at once (the same values, half the calls)."""
+    pair = np.empty((2, *np.shape(pred)))
+    resid, scratch = np.subtract(pred, ctx.y, out=pair[0]), pair[1]
+    w = ctx.weights
     out = {"rss": _sum_of_squares(resid, None)}
-    scratch = np.empty_like(resid)
-    for name in names:
+    cos = np.asarray(ctx.cos_i, dtype=float)[:, None]  # as (M, C) values where it serves
+    if cos.size != pair[0].size and ("cosine" in names or "log" in names or "cbrt" in names):
+        cos = np.repeat(cos, pair.shape[2], axis=1)  # three products of contiguous values,
+    for name in names:  # not of rows of C against one (the same products, 4 us less)
         loss = LOSSES[name]
-        if name == "l2" and ctx.weights is None:
+        if name == "l2" and w is None:
             out[name] = out["rss"]
-        elif name in _IN_PLACE:
-            out[name] = _sum_of_squares(_IN_PLACE[name](resid, ctx, scratch), ctx.weights)
+        elif name == "cosine":
+            out[name] = _sum_of_squares(np.multiply(resid, cos, out=scratch), w)
+        elif name == "relative":
+            out[name] = _sum_of_squares(_relative_in(resid, ctx, scratch), w)
         elif loss.linear:
-            out[name] = _sum_of_squares(loss.transform(resid, ctx), ctx.weights)
+            out[name] = _sum_of_squares(loss.transform(resid, ctx), w)
         elif name not in _PROJECTED:
             diff = loss.transform(pred, ctx) - loss.transform(ctx.y, ctx)
-            out[name] = _sum_of_squares(diff, ctx.weights)
-    projected = [name for name in names if name in _PROJECTED]
-    if projected:  # f cos and y cos, in the residual's array and the scratch one
-        cos = np.asarray(ctx.cos_i, dtype=float)[:, None]
-        p = {"f": np.multiply(pred, cos, out=resid), "y": np.multiply(ctx.y, cos, out=scratch)}
-        for name in sorted(projected, key=list(_PROJECTED).index):  # log first: cbrt overwrites
-            out[name] = _sum_of_squares(_PROJECTED[name](p), ctx.weights)
+            out[name] = _sum_of_squares(diff, w)
+    if "log" in names or "cbrt" in names:  # f cos and y cos, in the two arrays
+        both = pair
+        np.multiply(pred, cos, out=both[0]), np.multiply(ctx.y, cos, out=both[1])
+        if "log" in names:  # ln(max(1 + f cos, 1e-12)) - ln(max(1 + y cos, 1e-12))
+            t = np.add(both, 1.0)
+            np.log(np.maximum(t, 1e-12, out=t), out=t)
+            out["log"] = _sum_of_squares(np.subtract(t[0], t[1], out=t[0]), w)
+        if "cbrt" in names:  # cbrt(f cos) - cbrt(y cos)
+            np.cbrt(both, out=both)
+            out["cbrt"] = _sum_of_squares(np.subtract(both[0], both[1], out=both[0]), w)
     return out
-
-
-def _cosine_in(d, ctx, out):
-    """The cosine loss's transform of the residual ``d``, written into ``out``."""
-    return np.multiply(d, np.asarray(ctx.cos_i, dtype=float)[:, None], out=out)
 
 
 def _relative_in(d, ctx, out):
@@ -178,29 +186,9 @@ def _relative_in(d, ctx, out):
     return np.divide(d, scale, out=out)
 
 
-#: The linear losses whose transform of the residual is written into a scratch array
-#: (the same operations as their own transforms, so the same values).
-_IN_PLACE = {"cosine": _cosine_in, "relative": _relative_in}
-
-
-def _log_difference(p: dict) -> np.ndarray:
-    """``ln(1 + f cos) - ln(1 + y cos)`` (each argument at least 1e-12), in place."""
-    t = np.add(p["f"], 1.0)
-    u = np.add(p["y"], 1.0)
-    np.log(np.maximum(t, 1e-12, out=t), out=t)
-    np.log(np.maximum(u, 1e-12, out=u), out=u)
-    return np.subtract(t, u, out=t)
-
-
-def _cbrt_difference(p: dict) -> np.ndarray:
-    """``cbrt(f cos) - cbrt(y cos)``, in ``p``'s arrays (the last use of them)."""
-    t = np.cbrt(p["f"], out=p["f"])
-    return np.subtract(t, np.cbrt(p["y"], out=p["y"]), out=t)
-
-
 #: The non-linear losses computed from ``f cos`` and ``y cos`` formed once (the tests
 #: of the metrics hold them to each loss's own value).
-_PROJECTED = {"log": _log_difference, "cbrt": _cbrt_difference}
+_PROJECTED = ("log", "cbrt")
 
 
 def _sum_of_squares(d: np.ndarray, weights) -> float:
@@ -209,5 +197,5 @@ def _sum_of_squares(d: np.ndarray, weights) -> float:
     if d.ndim == 1:
         d = d[:, None]
     if weights is None:
-        return float(np.einsum("mc,mc->", d, d))
-    return float(np.einsum("mc,mc,m->", d, d, np.asarray(weights, dtype=float)))
+        return float(einsum("mc,mc->", d, d))
+    return float(einsum("mc,mc,m->", d, d, np.asarray(weights, dtype=float)))

@@ -280,11 +280,42 @@ def test_one_linear_parameter_s_verdicts_are_those_of_the_plain_way(case, monkey
     result = brdffit.fit(data, model, loss=loss, **options)
     problem = Problem(data, model, loss=loss, fixed=options.get("fixed"))
     params = dict(result.params)
-    calls, taken = [], information._diagonal_inverse
-    monkeypatch.setattr(information, "_diagonal_inverse",
-                        lambda *a: calls.append(1) or taken(*a))  # fmt: skip
+    calls, taken = [], information._coefficients_dead
+    monkeypatch.setattr(information, "_coefficients_dead",
+                        lambda *a: calls.append(taken(*a)) or calls[-1])  # fmt: skip
     got = identifiability.unidentified(problem, params)
-    assert calls  # the diagonal was taken
+    assert calls and calls[-1] is not None  # the diagonal was taken, in floats
+    # with the fit's prediction, every case but the log loss (not linear) and dark's (a
+    # coefficient at a bound) takes the steps of _coefficients_only
+    lean, taken_lean = [], identifiability._coefficients_only
+    monkeypatch.setattr(identifiability, "_coefficients_only",
+                        lambda *a: lean.append(taken_lean(*a)) or lean[-1])  # fmt: skip
+    with_pred = identifiability.unidentified(problem, params, pred=problem.predict(params))
+    assert (lean[-1] is None) == (case in (1, 2))
     _plain(monkeypatch)
+    monkeypatch.setattr(information, "_coefficients_dead", lambda *a: None)
     monkeypatch.setattr(identifiability, "coefficient_diagonal", lambda *a: None)
-    assert got == identifiability.unidentified(problem, params)
+    assert got == with_pred == identifiability.unidentified(problem, params)
+
+
+@pytest.mark.parametrize("diagonal", [
+    [1.0, 1.0, 1.0], [2.5, 0.0, 7.0], [0.0, 0.0], [1e-320, 1.0], [1e-320, 1e-320],
+    [5e-324, 3.0], [1e300, 1e-10], [1.0, np.inf], [1.0, np.nan], [1.0, -0.0], [1.0],
+    [3.0] * 7, [1e-300, 1e-300, 1.0],
+])  # fmt: skip
+@pytest.mark.parametrize("rtol", [identifiability.RANK_RTOL, 0.3])  # 0.3: the proof fails
+def test_coefficients_alone_are_judged_in_floats_as_in_arrays(diagonal, rtol, monkeypatch):
+    info = np.array(diagonal)
+    names = [f"kd[{c}]" for c in "rgbcmyk"[: len(diagonal)]]
+    kinds, params = ["coef"] * len(names), dict.fromkeys(names, 0.5)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        try:
+            got = information.judge(names, kinds, info, params, rtol, 1.0)
+        except np.linalg.LinAlgError:
+            got = "raised"
+        monkeypatch.setattr(information, "_coefficients_dead", lambda *a: None)
+        try:
+            want = information.judge(names, kinds, info, params, rtol, 1.0)
+        except np.linalg.LinAlgError:
+            want = "raised"
+    assert got == want

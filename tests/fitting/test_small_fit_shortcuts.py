@@ -176,3 +176,57 @@ def test_the_runs_of_a_few_rows_at_once_are_those_row_by_row(monkeypatch, c, m):
     codes[-1, ::3] = 0  # an exact zero: row by row
     assert_array_equal(runs.runs(codes)[2], runs._statistics([runs._count(r) for r in codes])[2])
     assert by_row == [1]
+
+
+@pytest.mark.parametrize("m, c", [(600, 3), (1, 1), (50, 31)])
+def test_one_column_s_gram_under_per_channel_weights_is_the_pairs_one(m, c):
+    from brdffit.fitting import linear
+
+    rng = np.random.default_rng(m + c)
+    columns, y = rng.uniform(0.0, 2.0, (m, 1)), rng.uniform(0.0, 1.0, (m, c))
+    w = rng.uniform(0.1, 1e4, (m, c))
+    got = linear.normal_equations(columns, y, w)
+    iu = np.triu_indices(1)  # the pairs' way, which every K takes
+    want = (w.T @ (columns[:, iu[0]] * columns[:, iu[1]])).reshape(c, 1, 1)
+    assert_array_equal(got.gram, want)
+    assert got.gram.shape == (c, 1, 1)
+
+
+@pytest.mark.parametrize("shape", [(600, 3), (5, 1), (0, 3)])
+def test_weights_told_apart_by_their_first_row_are_those_of_the_whole_test(shape):
+    rng = np.random.default_rng(7)
+    for w in (rng.uniform(1.0, 2.0, shape), np.repeat(rng.uniform(1.0, 2.0, shape[:1])[:, None],
+                                                      shape[1], axis=1)):  # fmt: skip
+        plain = bool((w == w[:, :1]).all())
+        assert solve._same_in_every_channel(w) is plain
+    if shape[0]:
+        w = np.ones(shape)
+        w[0, -1] = np.nan
+        assert solve._same_in_every_channel(w) is bool((w == w[:, :1]).all())
+
+
+@pytest.mark.parametrize("subscripts, shapes", [
+    ("mc,mc->", [(600, 3), (600, 3)]), ("mc,mc,m->", [(600, 3), (600, 3), (600,)]),
+    ("mc,mc->c", [(5000, 31), (5000, 31)]), ("ckl,...cl->...ck", [(3, 2, 2), (7, 3, 2)]),
+    ("sck,ck->sc", [(9, 3, 2), (3, 2)]), ("bc,bc,b->", [(16384, 1), (16384, 1), (16384,)]),
+])  # fmt: skip
+def test_the_fitting_einsum_is_numpy_s(subscripts, shapes):
+    from brdffit.fitting.channels import einsum
+
+    rng = np.random.default_rng(len(subscripts))
+    operands = [rng.standard_normal(shape) * 1e3 for shape in shapes]
+    assert_array_equal(einsum(subscripts, *operands), np.einsum(subscripts, *operands))
+
+
+def test_the_bounds_told_in_floats_are_those_of_the_arrays():
+    from brdffit.fitting import linear
+
+    rng = np.random.default_rng(11)
+    lower, upper = np.array([0.0, 0.0, -1.0]), np.array([1.0, np.inf, 1.0])
+    special = [0.0, -0.0, 1.0, -1.0, np.inf, -np.inf, np.nan, 1e-300, -1e-300, 1.0 + 2e-16]
+    for _ in range(400):
+        c = int(rng.integers(1, 5))
+        x = rng.uniform(-0.2, 1.2, (c, 3))
+        x[rng.random((c, 3)) < 0.2] = rng.choice(special)
+        want = bool(linear._feasible(x, lower, upper, None).all())
+        assert linear._inside(x.tolist(), lower.tolist(), upper.tolist()) is want
