@@ -43,6 +43,12 @@ from .plastic_table import TABLE_SIZE, local_table
 
 _INV_PI = 1.0 / math.pi
 _F0 = 0.04  # glTF's dielectric reflectance at normal incidence (ior 1.5)
+#: ``L + V`` times ``_UP`` in :func:`_anisotropic_spec` (exact): its squares stay
+#: normal numbers down to ``|L + V| = 4e-290`` (L = -V but for their heights ``z``
+#: gave ``S = 0`` and NaN for ``z < 1e-162``), and ``Q <= S / a^2`` below 2^1023 for
+#: widths down to 2^-50; ``_HALF_DOWN`` takes ``sqrt(S _UP^2)`` back to ``sqrt(S) / 2``,
+#: exactly.
+_UP, _HALF_DOWN = 2.0**450, 0.5 * 2.0**-450
 
 
 @_inline
@@ -110,7 +116,8 @@ def _anisotropic_spec(lx, ly, lz, vx, vy, vz, tc, ts, bc, bs, hc, hs, kc, ks):
     c_L r_V)``, and Schlick's weight ``w``; the axes' factors are ``tc = a_t cos r``,
     ..., ``hc = cos r / a_t``, ... (:func:`gltf_anisotropic`). ``S = |L + V|^2`` and
     ``w = (1 - clip(sqrt(S) / 2, 0, 1))^5`` as the geometry and the numpy model form
-    them (the same operations: the same values); ``q = Q / S`` with ``Q = (x_t/a_t)^2 +
+    them (the same operations on ``L + V`` times :data:`_UP`, a power of two: the same
+    values; NaN only for ``|L + V| < 1e-297``); ``q = Q / S`` with ``Q = (x_t/a_t)^2 +
     (x_b/a_b)^2 + z^2`` of ``L + V`` (numpy's ``q`` of the normalised H), both scaled by
     the power of two ``p`` that takes ``S`` to [1, 2) (exact; ``S^2`` would underflow for
     ``|L + V| < 1e-77``); ``r_L = sqrt(c_L^2 + (a_t l_t)^2 + (a_b l_b)^2) = c_L sqrt(1 +
@@ -118,9 +125,9 @@ def _anisotropic_spec(lx, ly, lz, vx, vy, vz, tc, ts, bc, bs, hc, hs, kc, ks):
     MIN_COSINE)``, so that ``(s_L + s_V) 4 c_L c_V = 4 (c_V r_L + c_L r_V)`` needs no
     division; its argument is in ``[1e-20, 3]``, within
     :func:`~brdffit.kernels.loops_microfacet.sqrt_short`'s range."""
-    x, y, z = lx + vx, ly + vy, lz + vz
+    x, y, z = (lx + vx) * _UP, (ly + vy) * _UP, (lz + vz) * _UP
     square = _square_sum(x, y, z)
-    d = min(max(0.5 * _exact_root(square), 0.0), 1.0)
+    d = min(max(_HALF_DOWN * _exact_root(square), 0.0), 1.0)
     w = 1.0 - d
     w2 = w * w
     w2 *= w2

@@ -149,12 +149,16 @@ def assemble(problem, cols, offset):
 
     A column is a float (constant), an (M,) array (the same for every walker),
     (W, M), or (W, M, C) when it differs per channel. The offset is None,
-    (M,), (W, M) or (W, M, C).
+    (M,), (W, M), (W, M, C) or (1, M, C): a coefficient fixed per channel times a
+    column the same for every walker (a constant or (M,) column times (C,) values
+    made a (C,) or (M, C) offset, read as (M,) or (W, M)).
     """
     p = problem
     for i, name in zip(p.fixed_index, p.fixed_coefs):
         value = np.asarray(p.fixed[name], dtype=float)
         col = np.asarray(cols[i], dtype=float)
+        if value.ndim and col.ndim < 2:
+            col = np.broadcast_to(col, (1, p.geometry.m))
         term = col[..., None] * value if value.ndim else col * float(value)
         offset = term if offset is None else _add(np.asarray(offset, dtype=float), term)
     return [cols[i] for i in p.coef_index], offset
@@ -171,5 +175,5 @@ def dense(x, w: int, m: int, c: int) -> np.ndarray:
     """A column or offset as a (W, M, C) array (a view where broadcasting allows)."""
     x = np.asarray(x, dtype=float)
     if x.ndim == 3:
-        return x
+        return np.broadcast_to(x, (w, m, c))
     return np.broadcast_to(np.broadcast_to(x, (w, m))[..., None], (w, m, c))

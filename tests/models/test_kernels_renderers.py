@@ -235,6 +235,29 @@ def test_directions_just_above_the_horizon_give_the_numpy_values(name, z):
     np.testing.assert_allclose(compiled, reference, rtol=with_f32(TOLERANCE, name), atol=0)
 
 
+@pytest.mark.parametrize("z", [1e-160, 1e-200, 1e-250, 1e-295])
+def test_gltf_anisotropic_with_l_and_v_exactly_opposite_but_for_their_height(z):
+    """L and V opposite to the last bit but for their height ``z`` (``L + V = (0, 0,
+    2z)``): below the clamps the BRDF is that at ``z = 1e-100`` (H = N, N.L and N.V
+    clamped, Schlick's weight 1), and the compiled loop gives it; its ``|L + V|^2``
+    underflowed to 0 for ``z < 1e-162`` (NaN; now for ``z < 4e-298`` only). The numpy
+    model is off there too (its H divides by at least 1e-300, and its ``|L + V|`` is
+    a subnormal number's root), so the reference is the loop's own value at 1e-100,
+    which the test above holds to numpy's."""
+    model = get_model("gltf_pbr_anisotropic")
+    params = {**model.defaults(), "anisotropy_strength": 0.7, "anisotropy_rotation": 0.4}
+    angles = np.radians([0.0, 20.0, 90.0, 137.0])
+    values = []
+    for height in (1e-100, z):
+        r = math.sqrt(1.0 - height * height)
+        wi = np.stack([r * np.cos(angles), r * np.sin(angles), np.full(4, height)], axis=1)
+        wo = wi * np.array([-1.0, -1.0, 1.0])
+        with kernels.use(True):
+            values.append(model.evaluate_prepared(Geometry(wi, wo), params))
+    assert np.all(np.isfinite(values[1]))
+    np.testing.assert_allclose(values[1], values[0], rtol=TOLERANCE, atol=0)
+
+
 def test_unit_directions_decides_which_principled_loop_runs():
     """The five-array principled loop (G1 from the cosines, exact for unit L and V)
     runs only where every squared length is within UNIT_ERROR of 1."""
