@@ -104,7 +104,7 @@ def _compiled(pred: np.ndarray, y: np.ndarray, ctx: LossContext, names: list) ->
     """:func:`loss_sums` with the linear losses summed by the compiled loop of
     :mod:`brdffit.kernels.loops_sums`, and the log and cbrt ones by numpy on blocks
     of the values it writes: ``ln`` of the ratio ``max(1 + f cos, 1e-12) / max(1 + y
-    cos, 1e-12)`` (the difference of the two logarithms of :func:`_log_difference`,
+    cos, 1e-12)`` (the difference of the two logarithms of :func:`_block_sums`,
     to rounding) and the cube roots of ``f cos`` and ``y cos``."""
     from ..kernels import loops_sums
 

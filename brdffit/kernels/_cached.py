@@ -142,9 +142,7 @@ def _initialize_runtime(target_context, folder: str) -> None:
         for name, address in _nrt_python.c_helpers.items():
             binding.add_symbol(name if name.startswith("_") else f"NRT_{name}", address)
         codegen = target_context.codegen()
-        key = (numba.__version__, llvmlite.__version__, sys.version_info[:2])
-        key += (codegen.magic_tuple(),)
-        path = os.path.join(folder, RUNTIME_FILE)
+        key, path = _runtime_key(codegen), os.path.join(folder, RUNTIME_FILE)
         library = _read_runtime(codegen, path, key)
         runtime_source["from"] = "file" if library is not None else "compiled"
         if library is None:
@@ -157,6 +155,16 @@ def _initialize_runtime(target_context, folder: str) -> None:
     except Exception:
         runtime_source["from"] = None
         _RTSYS.initialize(target_context)
+
+
+def _runtime_key(codegen) -> tuple:
+    """What the runtime's machine code depends on: numba, LLVM, Python, the CPU, and
+    numba's NRT debug settings (``NUMBA_DEBUG_NRT`` compiles a print into every
+    reference count: a file saved by a process debugging them printed on the standard
+    output of every later process)."""
+    key = (numba.__version__, llvmlite.__version__, sys.version_info[:2])
+    debug = (bool(config.DEBUG_NRT), getattr(config, "DEBUG_NRT_STACK_LIMIT", None))
+    return (*key, codegen.magic_tuple(), debug)
 
 
 def _read_runtime(codegen, path: str, key: tuple):

@@ -189,6 +189,32 @@ def test_the_runtime_file_is_read_only_where_it_was_saved_for_this_numba(tmp_pat
 
 
 @NEEDS_LIGHT
+def test_a_runtime_file_saved_while_debugging_numbas_counts_is_not_read(tmp_path, monkeypatch):
+    """``NUMBA_DEBUG_NRT`` compiles a print into every reference count: a runtime file
+    saved by such a process, read by the next ones, printed ``*** NRT_Incref`` lines on
+    their standard output (a CLI's JSON among them). Its key holds the setting."""
+    from numba.core import config
+    from numba.core.registry import cpu_target
+
+    from brdffit.kernels import _cached
+
+    codegen, path = cpu_target.target_context.codegen(), str(tmp_path / _cached.RUNTIME_FILE)
+    monkeypatch.setattr(config, "DEBUG_NRT", 1)
+    debugging = _cached._runtime_key(codegen)
+    (tmp_path / _cached.RUNTIME_FILE).write_bytes(_pickle_of(debugging))
+    monkeypatch.setattr(config, "DEBUG_NRT", 0)
+    assert _cached._runtime_key(codegen) != debugging
+    assert _cached._read_runtime(codegen, path, _cached._runtime_key(codegen)) is None
+
+
+def _pickle_of(key) -> bytes:
+    """A runtime file's bytes under ``key`` (its library never read: the key differs)."""
+    import pickle
+
+    return pickle.dumps((key, ("nrt", "object", (b"", b""))))
+
+
+@NEEDS_LIGHT
 def test_only_a_checked_numba_release_loads_light():
     """The light load is for the numba releases it was checked against; a version
     string's release is its major and minor number, whatever follows."""
