@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from .. import kernels
 from ..data.geometry import MIN_COSINE, Geometry
 from ..models.microfacet import inv_4_cos
 from ..models.shared import schlick_weight, vcavity_g
@@ -89,10 +90,29 @@ def microfacet_inputs(g: Geometry) -> tuple:
     ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's ``(1 - V.H)^5``."""
 
     def compute():
+        if kernels.wanted(g.m, modules=("loops_geometry",)):
+            return _microfacet_compiled(g)
         tan2_i, tan2_o = _tan2_of(g.wi, g.cos_i), _tan2_of(g.wo, g.cos_o)
         return g.tan2_h, tan2_i, tan2_o, _microfacet_factor(g), schlick_weight(g.cos_d)
 
     return g.cached("kernels.microfacet", compute)
+
+
+def _microfacet_compiled(g: Geometry) -> tuple:
+    """:func:`microfacet_inputs` (and the geometry's ``sin2_h`` and ``tan2_h``, unless
+    formed) by the one pass of :mod:`brdffit.kernels.loops_geometry`: the same values."""
+    from . import loops_geometry
+
+    cos_h, cos_d = g.cos_h, g.cos_d  # the compiled half terms first: |L + V| with them
+    form = "sin2_h" not in g.__dict__ and "tan2_h" not in g.__dict__
+    sin2_h, tan2_h = (np.empty(g.m), np.empty(g.m)) if form else (g.tan2_h, g.tan2_h)
+    out = np.empty((4, g.m))
+    wi, wo = np.ascontiguousarray(g.wi), np.ascontiguousarray(g.wo)
+    cosines = (g.cos_i, g.cos_o, cos_h, cos_d, g._half_norm)
+    loops_geometry.microfacet_terms(wi, wo, *cosines, form, sin2_h, tan2_h, out)
+    if form:
+        g.__dict__.update(sin2_h=sin2_h, tan2_h=tan2_h)
+    return tan2_h, *out
 
 
 def _cot_of(tan2: np.ndarray) -> np.ndarray:

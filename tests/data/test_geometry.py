@@ -68,3 +68,37 @@ def test_the_half_terms_are_not_compiled_for_a_small_geometry_or_with_the_kernel
     wi, wo = hemisphere_pairs(kernels.MIN_PAIRS, seed=6)
     with kernels.use(False):
         assert Geometry(wi, wo)._half_terms() is False
+
+
+@pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
+@pytest.mark.parametrize("pairs", [lambda: hemisphere_pairs(20_000, seed=7),
+                                   lambda: gonio_pairs(12_000, seed=8),
+                                   _merl_pairs])  # fmt: skip
+@pytest.mark.parametrize("formed", [(), ("sin2_h",), ("cos_h", "tan2_h")])
+def test_the_compiled_microfacet_inputs_are_numpys_bit_for_bit(pairs, formed, monkeypatch):
+    """GGX's inputs and the geometry's sin2_h and tan2_h formed in one compiled pass
+    (brdffit.kernels.loops_geometry) are numpy's values bit for bit, whichever of the
+    geometry's terms were formed before (by numpy or by the compiled half terms)."""
+    from brdffit.kernels import inputs, loops_geometry
+
+    importlib.import_module("brdffit.kernels.loops")
+    calls, loop = [], loops_geometry.microfacet_terms
+    monkeypatch.setattr(
+        loops_geometry, "microfacet_terms", lambda *a: calls.append(a[7]) or loop(*a)
+    )
+    wi, wo = pairs()
+    wi[:4, :] = [[0.0, 0.0, 1.0], [1.0, 0.0, 1e-12], [0.6, 0.0, 0.8], [0.0, 1.0, 1e-300]]
+    wo[:4, :] = [[0.0, 0.0, 1.0], [-1.0, 0.0, 1e-12], [-0.6, 0.0, 0.8], [0.0, -1.0, 1e-300]]
+    with kernels.use(True):
+        compiled = Geometry(wi, wo, check=False)
+        for name in formed:
+            getattr(compiled, name)
+        got = inputs.microfacet_inputs(compiled)
+        assert calls == [formed == ()]  # the loop ran, forming sin2_h unless formed
+        terms = (compiled.sin2_h, compiled.tan2_h, compiled.theta_h)
+    with kernels.use(False):
+        plain = Geometry(wi, wo, check=False)
+        want = inputs.microfacet_inputs(plain)
+        for a, b in zip((*got, *terms), (*want, plain.sin2_h, plain.tan2_h, plain.theta_h)):
+            np.testing.assert_array_equal(a, b)
+    assert len(got) == len(want) == 5
