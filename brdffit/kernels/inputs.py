@@ -66,11 +66,25 @@ def _pow5(x: np.ndarray) -> np.ndarray:
 
 
 def _log_ward_factor(g: Geometry) -> np.ndarray:
-    """``ln(1 / (4 pi sqrt((N.L)(N.V))))``, of both Ward lobes; cached."""
-    return g.cached(
-        "kernels.log_ward_factor",
-        lambda: np.log(1.0 / (4.0 * math.pi * np.sqrt(g.cos_i * g.cos_o))),
-    )
+    """``ln(1 / (4 pi sqrt((N.L)(N.V))))``, of both Ward lobes; cached (the factor by
+    :func:`brdffit.kernels.loops_geometry.ward_factor` where the kernels run)."""
+
+    def compute():
+        if not _geometry_loops(g):
+            return np.log(1.0 / (4.0 * math.pi * np.sqrt(g.cos_i * g.cos_o)))
+        from . import loops_geometry
+
+        out = np.empty(g.m)
+        loops_geometry.ward_factor(g.cos_i, g.cos_o, out)
+        return np.log(out, out=out)
+
+    return g.cached("kernels.log_ward_factor", compute)
+
+
+def _geometry_loops(g: Geometry) -> bool:
+    """Whether the loops of :mod:`brdffit.kernels.loops_geometry` run on ``g`` (loaded
+    here if so: the geometry's ``sin2_h`` and ``tan2_h`` then come from them too)."""
+    return kernels.wanted(g.m, modules=("loops_geometry",))
 
 
 def _theta_h2(g: Geometry) -> np.ndarray:
@@ -90,7 +104,7 @@ def microfacet_inputs(g: Geometry) -> tuple:
     ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's ``(1 - V.H)^5``."""
 
     def compute():
-        if kernels.wanted(g.m, modules=("loops_geometry",)):
+        if _geometry_loops(g):
             return _microfacet_compiled(g)
         tan2_i, tan2_o = _tan2_of(g.wi, g.cos_i), _tan2_of(g.wo, g.cos_o)
         return g.tan2_h, tan2_i, tan2_o, _microfacet_factor(g), schlick_weight(g.cos_d)
@@ -266,6 +280,7 @@ F32_ERROR = {
 
 def ward_inputs(g: Geometry) -> tuple:
     """Ward: ``tan^2 theta_h`` and ``ln(1 / (4 pi sqrt((N.L)(N.V))))``."""
+    _geometry_loops(g)  # loaded before tan2_h: the geometry's compiled pass forms it
     return g.tan2_h, _log_ward_factor(g)
 
 
@@ -274,6 +289,12 @@ def cook_torrance_inputs(g: Geometry) -> tuple:
     V-cavity ``G = min(1, 2 (N.H) min(N.L, N.V) / (V.H))`` and ``V.H``."""
 
     def compute():
+        if _geometry_loops(g):  # the same values in one pass
+            from . import loops_geometry
+
+            factor, cos_d = np.empty(g.m), np.empty(g.m)
+            loops_geometry.cook_torrance_factor(g.cos_h, g.cos_i, g.cos_o, g.cos_d, factor, cos_d)
+            return g.tan2_h, np.log(factor, out=factor), cos_d
         c2 = g.cos_h * g.cos_h
         shadowing = vcavity_g(g.cos_h, g.cos_i, g.cos_o, g.cos_d)
         factor = shadowing / (4.0 * g.cos_i * g.cos_o) * (1.0 / (math.pi * c2 * c2))
