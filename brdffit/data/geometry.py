@@ -161,6 +161,17 @@ class Geometry:
     def cos_o(self) -> np.ndarray:
         return np.maximum(self.wo[:, 2], MIN_COSINE)
 
+    def directions(self) -> tuple:
+        """``wi`` and ``wo`` contiguous and read-only, as the compiled loops take them:
+        one compiled version of a loop for a file's read-only directions and a
+        subset's writable ones (each version is a cache load of a first fit)."""
+        out = []
+        for w in (self.wi, self.wo):
+            w = np.ascontiguousarray(w).view()
+            w.flags.writeable = False
+            out.append(w)
+        return tuple(out)
+
     def _half_terms(self) -> bool:
         """Form ``|L + V|``, :attr:`cos_h` and :attr:`cos_d` at once by the compiled pass
         of :func:`brdffit.kernels.loops.half_terms` (the same values, 25 -> 6 ms on a
@@ -173,7 +184,7 @@ class Geometry:
         if any(name in self.__dict__ for name in ("_half_norm", "half", "cos_h", "cos_d")):
             return False
         norm, cos_h, cos_d = (np.empty(self.m) for _ in range(3))
-        wi, wo = np.ascontiguousarray(self.wi), np.ascontiguousarray(self.wo)
+        wi, wo = self.directions()
         loops.half_terms(wi, wo, MIN_COSINE, norm, cos_h, cos_d)
         self.__dict__.update(_half_norm=norm, cos_h=cos_h, cos_d=cos_d)
         return True
@@ -239,7 +250,7 @@ class Geometry:
         if "sin2_h" in self.__dict__ or "tan2_h" in self.__dict__:
             return False
         cos_h, sin2_h, tan2_h = self.cos_h, np.empty(self.m), np.empty(self.m)
-        wi, wo = np.ascontiguousarray(self.wi), np.ascontiguousarray(self.wo)
+        wi, wo = self.directions()
         loops.half_sines(wi, wo, self._half_norm, cos_h, sin2_h, tan2_h)
         self.__dict__.update(sin2_h=sin2_h, tan2_h=tan2_h)
         return True

@@ -121,7 +121,7 @@ def _microfacet_compiled(g: Geometry) -> tuple:
     form = "sin2_h" not in g.__dict__ and "tan2_h" not in g.__dict__
     sin2_h, tan2_h = (np.empty(g.m), np.empty(g.m)) if form else (g.tan2_h, g.tan2_h)
     out = np.empty((4, g.m))
-    wi, wo = np.ascontiguousarray(g.wi), np.ascontiguousarray(g.wo)
+    wi, wo = g.directions()
     cosines = (g.cos_i, g.cos_o, cos_h, cos_d, g._half_norm)
     loops_geometry.microfacet_terms(wi, wo, *cosines, form, sin2_h, tan2_h, out)
     if form:
