@@ -78,7 +78,8 @@ def test_a_fit_of_many_channels_on_few_pairs_loads_none_of_them():
 def test_a_compiled_fit_imports_only_the_loops_its_model_needs():
     """A first compiled fit imported all six loop modules (25 to 55 ms of its 0.5 s);
     a ward fit needs :mod:`brdffit.kernels.loops` (its lobe and the normal
-    equations' sums) and :mod:`brdffit.kernels.loops_sums` (its metrics) only."""
+    equations' sums), :mod:`brdffit.kernels.loops_geometry` (its inputs) and
+    :mod:`brdffit.kernels.loops_sums` (its metrics) only."""
     code = (
         "import sys, brdffit\n"
         "from brdffit import kernels\n"
@@ -88,4 +89,8 @@ def test_a_compiled_fit_imports_only_the_loops_its_model_needs():
         " or m == 'brdffit.kernels.plastic_table')))"
     )
     loaded = _printed(f"import json\n{code}")
-    assert loaded == ["brdffit.kernels.loops", "brdffit.kernels.loops_sums"]
+    assert loaded == [
+        "brdffit.kernels.loops",
+        "brdffit.kernels.loops_geometry",
+        "brdffit.kernels.loops_sums",
+    ]

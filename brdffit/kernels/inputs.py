@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from .. import kernels
 from ..data.geometry import MIN_COSINE, Geometry
 from ..models.microfacet import inv_4_cos
 from ..models.shared import schlick_weight, vcavity_g
@@ -65,11 +66,25 @@ def _pow5(x: np.ndarray) -> np.ndarray:
 
 
 def _log_ward_factor(g: Geometry) -> np.ndarray:
-    """``ln(1 / (4 pi sqrt((N.L)(N.V))))``, of both Ward lobes; cached."""
-    return g.cached(
-        "kernels.log_ward_factor",
-        lambda: np.log(1.0 / (4.0 * math.pi * np.sqrt(g.cos_i * g.cos_o))),
-    )
+    """``ln(1 / (4 pi sqrt((N.L)(N.V))))``, of both Ward lobes; cached (the factor by
+    :func:`brdffit.kernels.loops_geometry.ward_factor` where the kernels run)."""
+
+    def compute():
+        if not _geometry_loops(g):
+            return np.log(1.0 / (4.0 * math.pi * np.sqrt(g.cos_i * g.cos_o)))
+        from . import loops_geometry
+
+        out = np.empty(g.m)
+        loops_geometry.ward_factor(g.cos_i, g.cos_o, out)
+        return np.log(out, out=out)
+
+    return g.cached("kernels.log_ward_factor", compute)
+
+
+def _geometry_loops(g: Geometry) -> bool:
+    """Whether the loops of :mod:`brdffit.kernels.loops_geometry` run on ``g`` (loaded
+    here if so: the geometry's ``sin2_h`` and ``tan2_h`` then come from them too)."""
+    return kernels.wanted(g.m, modules=("loops_geometry",))
 
 
 def _theta_h2(g: Geometry) -> np.ndarray:
@@ -89,10 +104,29 @@ def microfacet_inputs(g: Geometry) -> tuple:
     ``1 / (4 (N.L)(N.V) (N.H)^4)`` and Schlick's ``(1 - V.H)^5``."""
 
     def compute():
+        if _geometry_loops(g):
+            return _microfacet_compiled(g)
         tan2_i, tan2_o = _tan2_of(g.wi, g.cos_i), _tan2_of(g.wo, g.cos_o)
         return g.tan2_h, tan2_i, tan2_o, _microfacet_factor(g), schlick_weight(g.cos_d)
 
     return g.cached("kernels.microfacet", compute)
+
+
+def _microfacet_compiled(g: Geometry) -> tuple:
+    """:func:`microfacet_inputs` (and the geometry's ``sin2_h`` and ``tan2_h``, unless
+    formed) by the one pass of :mod:`brdffit.kernels.loops_geometry`: the same values."""
+    from . import loops_geometry
+
+    cos_h, cos_d = g.cos_h, g.cos_d  # the compiled half terms first: |L + V| with them
+    form = "sin2_h" not in g.__dict__ and "tan2_h" not in g.__dict__
+    sin2_h, tan2_h = (np.empty(g.m), np.empty(g.m)) if form else (g.tan2_h, g.tan2_h)
+    out = np.empty((4, g.m))
+    wi, wo = g.directions()
+    cosines = (g.cos_i, g.cos_o, cos_h, cos_d, g._half_norm)
+    loops_geometry.microfacet_terms(wi, wo, *cosines, form, sin2_h, tan2_h, out)
+    if form:
+        g.__dict__.update(sin2_h=sin2_h, tan2_h=tan2_h)
+    return tan2_h, *out
 
 
 def _cot_of(tan2: np.ndarray) -> np.ndarray:
@@ -246,6 +280,7 @@ F32_ERROR = {
 
 def ward_inputs(g: Geometry) -> tuple:
     """Ward: ``tan^2 theta_h`` and ``ln(1 / (4 pi sqrt((N.L)(N.V))))``."""
+    _geometry_loops(g)  # loaded before tan2_h: the geometry's compiled pass forms it
     return g.tan2_h, _log_ward_factor(g)
 
 
@@ -254,6 +289,12 @@ def cook_torrance_inputs(g: Geometry) -> tuple:
     V-cavity ``G = min(1, 2 (N.H) min(N.L, N.V) / (V.H))`` and ``V.H``."""
 
     def compute():
+        if _geometry_loops(g):  # the same values in one pass
+            from . import loops_geometry
+
+            factor, cos_d = np.empty(g.m), np.empty(g.m)
+            loops_geometry.cook_torrance_factor(g.cos_h, g.cos_i, g.cos_o, g.cos_d, factor, cos_d)
+            return g.tan2_h, np.log(factor, out=factor), cos_d
         c2 = g.cos_h * g.cos_h
         shadowing = vcavity_g(g.cos_h, g.cos_i, g.cos_o, g.cos_d)
         factor = shadowing / (4.0 * g.cos_i * g.cos_o) * (1.0 / (math.pi * c2 * c2))

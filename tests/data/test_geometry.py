@@ -68,3 +68,70 @@ def test_the_half_terms_are_not_compiled_for_a_small_geometry_or_with_the_kernel
     wi, wo = hemisphere_pairs(kernels.MIN_PAIRS, seed=6)
     with kernels.use(False):
         assert Geometry(wi, wo)._half_terms() is False
+
+
+def _edge_pairs(pairs):
+    """``pairs()`` with L = V = N, grazing and horizon pairs first."""
+    wi, wo = pairs()
+    wi[:4, :] = [[0.0, 0.0, 1.0], [1.0, 0.0, 1e-12], [0.6, 0.0, 0.8], [0.0, 1.0, 1e-300]]
+    wo[:4, :] = [[0.0, 0.0, 1.0], [-1.0, 0.0, 1e-12], [-0.6, 0.0, 0.8], [0.0, -1.0, 1e-300]]
+    return wi, wo
+
+
+_PAIRS = [lambda: hemisphere_pairs(20_000, seed=7), lambda: gonio_pairs(12_000, seed=8),
+          _merl_pairs]  # fmt: skip
+
+
+@pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
+@pytest.mark.parametrize("pairs", _PAIRS)
+@pytest.mark.parametrize("formed", [(), ("sin2_h",), ("cos_h", "tan2_h")])
+def test_the_compiled_microfacet_inputs_are_numpys_bit_for_bit(pairs, formed, monkeypatch):
+    """GGX's inputs and the geometry's sin2_h and tan2_h formed in one compiled pass
+    (brdffit.kernels.loops_geometry) are numpy's values bit for bit, whichever of the
+    geometry's terms were formed before (by numpy or by the compiled half terms)."""
+    from brdffit.kernels import inputs, loops_geometry
+
+    importlib.import_module("brdffit.kernels.loops")
+    calls, loop = [], loops_geometry.microfacet_terms
+    spy = lambda *a: calls.append(a[7]) or loop(*a)  # noqa: E731
+    monkeypatch.setattr(loops_geometry, "microfacet_terms", spy)
+    wi, wo = _edge_pairs(pairs)
+    with kernels.use(True):
+        compiled = Geometry(wi, wo, check=False)
+        for name in formed:
+            getattr(compiled, name)
+        got = inputs.microfacet_inputs(compiled)
+        assert calls == [formed == ()]  # the loop ran, forming sin2_h unless formed
+        terms = (compiled.sin2_h, compiled.tan2_h, compiled.theta_h)
+    with kernels.use(False):
+        plain = Geometry(wi, wo, check=False)
+        want = inputs.microfacet_inputs(plain)
+        for a, b in zip((*got, *terms), (*want, plain.sin2_h, plain.tan2_h, plain.theta_h)):
+            np.testing.assert_array_equal(a, b)
+    assert len(got) == len(want) == 5
+
+
+@pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
+@pytest.mark.parametrize("pairs", _PAIRS)
+@pytest.mark.parametrize("model", ["ward", "cook_torrance", "ward_anisotropic"])
+def test_the_compiled_ward_and_cook_torrance_inputs_are_numpys_bit_for_bit(pairs, model):
+    """Ward's and Cook-Torrance's inputs, and the geometry's sin2_h and tan2_h, by the
+    loops of brdffit.kernels.loops_geometry (numpy's log of their factors) are numpy's
+    values bit for bit."""
+    from brdffit.kernels import inputs, loops_geometry
+
+    importlib.import_module("brdffit.kernels.loops")
+    wi, wo = _edge_pairs(pairs)
+    inputs_of = getattr(inputs, f"{model}_inputs")
+    with kernels.use(True):
+        compiled = Geometry(wi, wo, check=False)
+        got = inputs_of(compiled)
+        assert ("tan2_h" in compiled.__dict__) == (model != "ward_anisotropic")
+        terms = (compiled.sin2_h, compiled.tan2_h)
+        fresh = Geometry(wi, wo, check=False)
+        assert loops_geometry and fresh._half_sines() is True  # the compiled pass runs
+    with kernels.use(False):
+        plain = Geometry(wi, wo, check=False)
+        want = inputs_of(plain)
+        for a, b in zip((*got, *terms), (*want, plain.sin2_h, plain.tan2_h)):
+            np.testing.assert_array_equal(a, b)
