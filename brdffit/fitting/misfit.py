@@ -55,16 +55,16 @@ ALPHA = 1e-6
 EXACT = 1e-6
 
 
-def _keys(data) -> tuple[np.ndarray, np.ndarray]:
-    """Sort keys of theta_h and theta_d of every sample (Rusinkiewicz 1998): ``-N.H``
+def _keys(data, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Sort keys of theta_h and theta_d of every ``step``-th sample (Rusinkiewicz 1998): ``-N.H``
     and ``-V.H``, which order the samples as the angles do (``arccos`` decreases)
     without computing them; the cosines of the data's geometry where every pair is
     above the horizon (the models have usually computed them), else from ``H = L + V``
     (``V.H = |L + V| / 2``, as :attr:`Geometry.cos_d`)."""
     geometry = data.geometry() if hasattr(data, "geometry") else None
     if geometry is not None and geometry.all_valid:
-        return np.negative(geometry.cos_h), np.negative(geometry.cos_d)
-    h = data.wi + data.wo
+        return np.negative(geometry.cos_h[::step]), np.negative(geometry.cos_d[::step])
+    h = data.wi[::step] + data.wo[::step]
     length = np.sqrt(np.einsum("ij,ij->i", h, h))
     cos_h = h[:, 2] / np.maximum(length, 1e-300)
     return np.negative(cos_h, out=cos_h), np.multiply(length, -0.5, out=length)
@@ -92,7 +92,7 @@ def _sort_orders(data, step: int = 1) -> np.ndarray:
     indices where they fit: half the memory of the cache (a whole MERL file's fit
     peaked past 600 MB with 64-bit ones).
     """
-    key_h, key_d = (key[::step] for key in _keys(data))
+    key_h, key_d = _keys(data, step)
     kind = np.int32 if key_h.size < 2**31 else np.intp
     by_h, by_d = _stable_orders(key_h, key_d)
     out = np.empty((2, by_h.size), dtype=kind)

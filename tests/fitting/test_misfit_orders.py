@@ -160,7 +160,7 @@ def test_a_second_test_on_the_same_geometry_does_not_sort_again(monkeypatch):
     want = [reference(d, z, k, 4, True) for d, z, k in runs]
     calls = []
     angles = misfit._keys
-    monkeypatch.setattr(misfit, "_keys", lambda d: calls.append(d) or angles(d))
+    monkeypatch.setattr(misfit, "_keys", lambda d, step=1: calls.append(d) or angles(d, step))
     for (d, z, k), w in zip(runs, want):
         assert_equal(misfit_test(d, z, k, 4, True), w)
     assert [want[0]["detected"], want[3]["detected"]] == [False, True]
@@ -170,7 +170,9 @@ def test_a_second_test_on_the_same_geometry_does_not_sort_again(monkeypatch):
 def test_a_fit_and_its_refit_sort_once(monkeypatch):
     calls = []
     angles = misfit._keys
-    monkeypatch.setattr(misfit, "_keys", lambda data: calls.append(data) or angles(data))
+    monkeypatch.setattr(
+        misfit, "_keys", lambda data, step=1: calls.append(data) or angles(data, step)
+    )
     data = make_data("ward", {"kd": 0.2, "ks": 0.3, "alpha": 0.15}, n=600)
     for model in ("ward", "blinn"):
         result = brdffit.fit(data, model, loss="l2", global_evals=200, local_evals=200)
@@ -219,3 +221,21 @@ def test_the_threshold_is_the_normal_upper_quantile(p):
     """The thresholds come from the standard library (scipy.stats is not imported with
     brdffit); they are scipy's ``norm.isf`` to round-off."""
     assert misfit._upper_quantile(p) == pytest.approx(norm.isf(p), rel=1e-14, abs=1e-15)
+
+
+@pytest.mark.parametrize("below", [False, True])
+def test_the_keys_of_every_step_th_sample_are_those_of_all_the_samples(below):
+    """``_keys(data, step)``, which the runs test's subsample sorts (it negates only
+    the samples it keeps), is every ``step``-th key of all the samples, bit for bit,
+    both where the geometry's cosines serve (every pair above the horizon) and where
+    the keys come from ``L + V`` (a pair below it)."""
+    wi, wo = hemisphere_pairs(3001, seed=5)
+    if below:
+        wo = wo.copy()
+        wo[10] = (0.6, 0.0, -0.8)
+    data = brdffit.Measurements(wi, wo, np.ones((len(wi), 1)))
+    assert data.geometry().all_valid is not below
+    every = misfit._keys(data)
+    for step in (1, 3, 4, 7):
+        for part, whole in zip(misfit._keys(data, step), every):
+            assert_equal(part, whole[::step])
