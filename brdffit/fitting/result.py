@@ -15,7 +15,7 @@ from ..words import plural
 from .losses import LOSSES, LossContext
 from .sums import loss_sums
 
-__all__ = ["FitResult", "metrics_of"]
+__all__ = ["FAR", "FitResult", "beyond_reach", "metrics_of", "noise_failed"]
 
 
 @dataclass(frozen=True)
@@ -203,3 +203,48 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
     out["aic"] = base + 2 * n_params
     out["bic"] = base + n_params * math.log(n)
     return out
+
+
+#: The data are "far above" the fit when their largest value is over this many times
+#: the largest prediction (:func:`beyond_reach`).
+FAR = 100.0
+
+
+def beyond_reach(model, params: Mapping, at_bounds, y, pred) -> str:
+    """A note for the result's message when the data lie far beyond what ``model``
+    reaches within its bounds: a linear coefficient at a bound (``at_bounds``) and the
+    data's largest value over :data:`FAR` times the largest prediction. Else ``""``.
+
+    Such data are most often in other units (percent, radiance not divided by the
+    irradiance): the fit then reports coefficients at their bounds and a prediction
+    that does not meet the data, which is said here in words with what to do."""
+    linear = [p for p in model.linear_params if p.name in params and p.name in at_bounds]
+    if not linear:
+        return ""
+    finite = np.asarray(y, dtype=float)
+    top = float(finite[np.isfinite(finite)].max(initial=0.0))
+    reach = float(np.abs(np.asarray(pred, dtype=float)).max(initial=0.0))
+    if not top > FAR * reach:
+        return ""
+    limits = ", ".join(f"{p.name} <= {p.upper:g}" for p in model.linear_params)
+    return (
+        f"; the data lie far beyond what {model.name} can reach within its bounds "
+        f"({limits}): their largest value is {top:.3g}, the fit's largest prediction "
+        f"{reach:.3g}; the data may be in other units (percent, or radiance not divided "
+        "by the irradiance): rescale them to a BRDF in 1/sr, or choose a model whose "
+        "coefficients reach them"
+    )
+
+
+def noise_failed(model: str, top: float) -> str:
+    """The error of a fit whose noise model (the ``mixed`` loss's, estimated from the
+    residuals of ``model``) gave a sigma that is not finite and positive: what went
+    wrong is most often in the data's values (largest ``top``), which the user can
+    change, or the loss."""
+    return (
+        f"the noise model estimated from the residuals of {model} (sigma^2 = a^2 + "
+        "(b f)^2, the mixed loss) is not finite and positive everywhere; the data's "
+        f"largest value is {top:.3g}: if they are not a BRDF in 1/sr (percent, radiance "
+        "not divided by the irradiance), rescale them, or fit with another loss "
+        "(loss='l2')"
+    )
