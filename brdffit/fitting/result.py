@@ -226,10 +226,12 @@ def beyond_reach(model, params: Mapping, at_bounds, y, pred) -> str:
     reach = float(np.abs(np.asarray(pred, dtype=float)).max(initial=0.0))
     if not top > FAR * reach:
         return ""
-    limits = ", ".join(f"{p.name} <= {p.upper:g}" for p in model.linear_params)
+    limits = ", ".join(f"{p.name} <= {p.upper:g}" for p in model.linear_params
+                       if math.isfinite(p.upper))  # fmt: skip
     return (
-        f"; the data lie far beyond what {model.name} can reach within its bounds "
-        f"({limits}): their largest value is {top:.3g}, the fit's largest prediction "
+        f"; the data lie far beyond what {model.name} can reach within its bounds"
+        f"{f' ({limits})' if limits else ''}: their largest value is {top:.3g}, the "
+        f"fit's largest prediction "
         f"{reach:.3g}; the data may be in other units (percent, or radiance not divided "
         "by the irradiance): rescale them to a BRDF in 1/sr, or choose a model whose "
         "coefficients reach them"
