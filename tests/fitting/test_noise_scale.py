@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import shared_file
 
 import brdffit
 from brdffit.data.measurements import Measurements
@@ -64,13 +65,14 @@ def scaled_ward(scale: float) -> Measurements:
     return Measurements(m.wi, m.wo, m.values * scale, channels=m.channels)
 
 
-@pytest.mark.parametrize("scale", [1e10, 1e20, 1e60, 1e99])
+@pytest.mark.parametrize("scale", [100.0, 1e4, 1e10, 1e20, 1e60, 1e99])
 def test_data_far_beyond_the_model_are_said_in_words(scale):
     data = scaled_ward(scale)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         result = brdffit.fit(data, "ward")
-    assert np.isfinite(result.noise["a"]) and np.isfinite(result.noise["b"])
+    # (percent data are refitted with the log loss on their misfit: no a, b then)
+    assert all(result.noise[k] is None or np.isfinite(result.noise[k]) for k in "ab")
     for name, value in result.params.items():
         assert np.isfinite(value).all(), name
     top = float(np.max(data.values))
@@ -86,8 +88,16 @@ def test_ordinary_data_get_no_such_note():
     data = scaled_ward(1.0)
     result = brdffit.fit(data, "ward")
     assert "far beyond" not in result.message
-    # and data 100 times larger, still within the model's bounds (kd <= 1 of 0.3):
+    # and data 3 times larger, still within the model's bounds (kd <= 1 of 0.3):
     result = brdffit.fit(scaled_ward(3.0), "ward")
+    assert "far beyond" not in result.message, result.message
+
+
+def test_a_coefficient_at_its_lower_bound_is_not_beyond_reach():
+    # Cornell's garnet_red: ward puts kd at 0 and its median 3.1 times under the data.
+    data = brdffit.read(shared_file("cornell", "garnet_red.astm"))
+    result = brdffit.fit(data, "ward")
+    assert "kd" in result.at_bounds
     assert "far beyond" not in result.message, result.message
 
 
@@ -102,6 +112,11 @@ def test_the_note_needs_the_data_far_above_the_prediction():
     assert beyond_reach(model, result.params, ("kd", "ks"), data.values, pred) == ""
     assert beyond_reach(model, result.params, (), data.values, pred / 10) == ""
     assert beyond_reach(model, result.params, ("ks",), data.values, pred / 10)
+    # kd and ks at 0 (their lower bounds) under the same data: only a prediction of 0
+    # everywhere is beyond reach then.
+    low = {**result.params, "kd": 0 * result.params["kd"], "ks": 0 * result.params["ks"]}
+    assert beyond_reach(model, low, ("kd", "ks"), data.values, pred / 10) == ""
+    assert beyond_reach(model, low, ("kd", "ks"), data.values, 0 * pred)
 
 
 def test_a_bad_noise_sigma_says_what_to_do():
