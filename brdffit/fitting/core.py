@@ -38,7 +38,7 @@ from .misfit import assess, refit_on_misfit
 from .noise import reweight
 from .options import DEFAULT_GLOBAL, DEFAULT_LOCAL, FitOptions
 from .problem import BAD_LOSS, Problem, linear_at_bounds
-from .result import FitResult, metrics_of
+from .result import FitResult, beyond_reach, metrics_of
 
 #: The largest |value| of fitted data must lie in this range: the fit squares
 #: residuals and weights (1/sigma^2) and sums up to 1e9 of them, which must stay
@@ -295,6 +295,7 @@ def _result(
         message += "; at a bound of its range: " + ", ".join(at_bounds)
     if unidentified:
         message += "; not identified by the data: " + ", ".join(unidentified)
+    message += beyond_reach(problem.model, params, at_bounds, y, pred)
     if found.schedule:
         message += "; " + found.schedule
     if energy is not None:

@@ -54,6 +54,9 @@ GRID = 25
 #: error is then about sqrt(2 / 300,000) = 0.3 %, and each of the estimate's ~40
 #: passes over a MERL file's 3.3 M values took 60 ms (12 s of a 32 s default fit).
 MAX_VALUES = 300_000
+#: Residuals and predictions within 2^-UNIT_RANGE .. 2^UNIT_RANGE (about 1e-6 .. 1e6)
+#: are estimated in the data's unit; others in a scaled one (:func:`_unit`).
+UNIT_RANGE = 20
 
 
 @dataclass(frozen=True)
@@ -112,7 +115,9 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     more than one local optimum), refined by a bounded Brent search around the
     best, and the two pure forms (``rho = 0``, only ``a``; ``rho -> inf``, only
     ``b`` above the floor) compared with it. ``a`` keeps its floor
-    (:data:`FLOOR`). Above :data:`MAX_VALUES` values, on every k-th of them.
+    (:data:`FLOOR`). Above :data:`MAX_VALUES` values, on every k-th of them. Values
+    far from 1 (beyond ``2^±UNIT_RANGE``) are estimated in a unit of their size
+    (:func:`_unit`), so that no square or sum overflows.
 
     Parameters
     ----------
@@ -120,20 +125,48 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     weights : array_like (M,), optional
         Sample weights ``u`` (a sample of weight 0 does not count).
     """
-    r2 = np.asarray(resid, dtype=float) ** 2
-    g = np.asarray(pred, dtype=float) ** 2
+    resid, pred = np.asarray(resid, dtype=float), np.asarray(pred, dtype=float)
+    unit = _unit(resid, pred)
+    if unit != 1.0:  # in a unit of the data's size (see _unit): a scales with it, b not
+        noise = estimate(resid / unit, pred / unit, weights)
+        return NoiseModel(noise.a * unit, noise.b)
+    r2 = resid**2
+    g = pred**2
     u = np.ones(r2.shape[0]) if weights is None else np.asarray(weights, dtype=float)
     u = np.broadcast_to(u[:, None], r2.shape)
     keep = (u > 0) & np.isfinite(r2) & np.isfinite(g)
     r2, g, u = _thinned(r2[keep], g[keep], u[keep])
     if not r2.size:
         return NoiseModel(0.0, 0.0)
+    return _estimate(r2, g, u)
+
+
+def _unit(resid: np.ndarray, pred: np.ndarray) -> float:
+    """The unit in which :func:`estimate` works: 1 (the data's own, bit for bit as
+    ever) while the largest finite ``|resid|``, ``|pred|`` is within ``2^±UNIT_RANGE``,
+    else the power of two nearest it. The profile sums squares divided by predictions
+    and multiplied by ratios up to 1e12: values of 1e20 overflowed there and the
+    likelihood came out NaN or inf (and squares of values above 1e154 are inf). A
+    power of two scales exactly; in it the squares are below 4 and no sum overflows."""
+    top = 0.0
+    for a in (resid, pred):
+        finite = np.abs(a[np.isfinite(a)])
+        top = max(top, float(finite.max(initial=0.0)))
+    if top == 0.0 or abs(math.log2(top)) <= UNIT_RANGE:
+        return 1.0
+    return 2.0 ** round(math.log2(top))
+
+
+def _estimate(r2, g, u) -> NoiseModel:
+    """:func:`estimate` of squared residuals ``r2``, squared predictions ``g`` and
+    weights ``u`` (1-D, kept and thinned)."""
     u = u / u.sum()
     g_scale = max(_dot(u, g), 1e-300)
     gn = g / g_scale
     p_min = max((FLOOR * float(np.median(np.sqrt(g)))) ** 2, 1e-30 * _dot(u, r2), 1e-300)
     ur2 = u * r2
-    relative_c = max(_dot(ur2, 1.0 / np.maximum(gn, 1e-300)), 1e-300)
+    with np.errstate(over="ignore"):  # a prediction of 0 under a large residual: inf
+        relative_c = max(_dot(ur2, 1.0 / np.maximum(gn, 1e-300)), 1e-300)
 
     profile = _profile(u, ur2, gn, relative_c, p_min)
     grid = np.linspace(-12.0, 12.0, GRID)
@@ -141,9 +174,9 @@ def estimate(resid, pred, weights=None) -> NoiseModel:
     i = int(np.argmin(values))
     lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, GRID - 1)]
     found = _bounded_minimum(lambda x: profile(x)[0], lo, hi)
-    best = min(
-        [(found.fun, float(found.x)), (values[i], float(grid[i])), (profile(15.0)[0], 15.0)]
-    )
+    # The pure relative form, unless a prediction of 0 under a residual rules it out.
+    relative = [(profile(15.0)[0], 15.0)] if relative_c < math.inf else []
+    best = min([(found.fun, float(found.x)), (values[i], float(grid[i])), *relative])
     _, c = profile(best[1])
     if best[1] >= 15.0:
         return NoiseModel(math.sqrt(p_min), math.sqrt(c / g_scale))
@@ -167,7 +200,8 @@ def _profile(u, ur2, gn, relative_c: float, p_min: float):
     def profile(log_rho: float) -> tuple[float, float]:
         if log_rho >= 15.0:  # the pure relative form, with the floor
             c = relative_c
-            np.multiply(gn, c, out=v)
+            with np.errstate(over="ignore"):  # inf: a variance no sample fits (-inf ln L)
+                np.multiply(gn, c, out=v)
         else:
             np.multiply(gn, 10.0**log_rho, out=v)
             np.add(v, 1.0, out=v)

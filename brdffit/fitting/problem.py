@@ -22,6 +22,7 @@ from ..models import get_model
 from ..words import plural
 from .linear import weighted_target
 from .losses import LossContext, get_loss
+from .result import noise_failed
 from .solve import (
     BAD_LOSS,
     Solution,
@@ -221,7 +222,8 @@ class Problem:
             return np.ones(shape)
         noise = np.broadcast_to(np.asarray(noise_sigma, dtype=float), shape)
         if not (np.isfinite(noise).all() and (noise > 0).all()):
-            raise FitError("the noise model's sigma must be finite and positive", "noise")
+            top = float(np.max(np.abs(self.data.values), initial=0.0))
+            raise FitError(noise_failed(self.model.name, top), "noise")
         return noise
 
     def _invalid_contribution(self, y_all, sigma, w, valid, noise=None) -> float:

@@ -15,7 +15,7 @@ from ..words import plural
 from .losses import LOSSES, LossContext
 from .sums import loss_sums
 
-__all__ = ["FitResult", "metrics_of"]
+__all__ = ["FAR", "FitResult", "beyond_reach", "metrics_of", "noise_failed"]
 
 
 @dataclass(frozen=True)
@@ -203,3 +203,62 @@ def metrics_of(pred: np.ndarray, y: np.ndarray, ctx: LossContext, n_params: int)
     out["aic"] = base + 2 * n_params
     out["bic"] = base + n_params * math.log(n)
     return out
+
+
+#: The data are "far above" the fit when their largest value is over FAR times the
+#: largest prediction, or their median over TYPICAL times the prediction's median
+#: (values in percent: 9 times a ward fit's, whose kd and ks sit at their upper
+#: bounds; Cornell's garnet_red, kd at 0 not at 1: 3.1) (:func:`beyond_reach`).
+FAR = 100.0
+TYPICAL = 3.0
+
+
+def beyond_reach(model, params: Mapping, at_bounds, y, pred) -> str:
+    """A note for the result's message when the data lie far beyond what ``model``
+    reaches within its bounds, else ``""``: a linear coefficient at its upper bound
+    and the data far above the prediction (:data:`FAR`, :data:`TYPICAL`), or any at
+    a bound and a prediction of 0 everywhere under positive data.
+
+    Such data are most often in other units (percent, radiance not divided by the
+    irradiance): the fit then reports coefficients at their bounds and a prediction
+    that does not meet the data, which is said here in words with what to do."""
+    from .problem import linear_at_bounds  # (problem imports this module)
+
+    linear = [p for p in model.linear_params if p.name in params and p.name in at_bounds]
+    if not linear:
+        return ""
+    y, pred = np.asarray(y, dtype=float), np.abs(np.asarray(pred, dtype=float))
+    top = float(y[np.isfinite(y)].max(initial=0.0))
+    reach = float(pred.max(initial=0.0))
+    if not top > 0.0:
+        return ""
+    if reach > 0.0:
+        if not any(linear_at_bounds(p, params[p.name])[1].any() for p in linear):
+            return ""
+        typical = float(np.median(y)) > TYPICAL * float(np.median(pred))
+        if not (top > FAR * reach or typical):
+            return ""
+    limits = ", ".join(f"{p.name} <= {p.upper:g}" for p in model.linear_params
+                       if math.isfinite(p.upper))  # fmt: skip
+    return (
+        f"; the data lie far beyond what {model.name} can reach within its bounds"
+        f"{f' ({limits})' if limits else ''}: their largest value is {top:.3g}, the "
+        f"fit's largest prediction "
+        f"{reach:.3g}; the data may be in other units (percent, or radiance not divided "
+        "by the irradiance): rescale them to a BRDF in 1/sr, or choose a model whose "
+        "coefficients reach them"
+    )
+
+
+def noise_failed(model: str, top: float) -> str:
+    """The error of a fit whose noise model (the ``mixed`` loss's, estimated from the
+    residuals of ``model``) gave a sigma that is not finite and positive: what went
+    wrong is most often in the data's values (largest ``top``), which the user can
+    change, or the loss."""
+    return (
+        f"the noise model estimated from the residuals of {model} (sigma^2 = a^2 + "
+        "(b f)^2, the mixed loss) is not finite and positive everywhere; the data's "
+        f"largest value is {top:.3g}: if they are not a BRDF in 1/sr (percent, radiance "
+        "not divided by the irradiance), rescale them, or fit with another loss "
+        "(loss='l2')"
+    )
