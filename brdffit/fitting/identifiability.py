@@ -54,6 +54,8 @@ from .information import (
     channel_information,
     coefficient_diagonal,
     judge,
+    linearised,
+    residual_variance,
 )
 from .problem import linear_at_bounds
 from .schedule import seeded_rows
@@ -198,9 +200,7 @@ def _fisher(problem, params: dict, deadline=None, pred=None) -> dict:
     params, ctx = snapped, _context(problem, rows)
     unit = problem.loss.name == "l2" and ctx.weights is None  # weights of ones: none
     ref = ctx.y if base is None else base  # a linear loss's weights read only its shape
-    w, target = (None, ctx.y) if unit else problem.loss.linearised(ref, ctx)
-    if not unit and np.shape(w) != ref.shape:  # (broadcast_to of its shape: 3 us for nothing)
-        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], ref.shape)
+    w, target = linearised(problem.loss, ref, ctx, unit)
     names, kinds, sources, layout = _jacobian(problem, params, geometry, base, deadline)
     if not layout:
         return {}
@@ -209,10 +209,7 @@ def _fisher(problem, params: dict, deadline=None, pred=None) -> dict:
     info = channel_information(sources, layout, sqrt_w) if info is None else info
     info *= problem.geometry.m / len(rows)
     dof = max(ref.size * problem.geometry.m / len(rows) - len(names), 1.0)
-    s2 = 1.0  # with sigma; else the residual variance
-    if not problem.loss.needs_sigma:
-        d = np.subtract(target, base)
-        s2 = float(np.einsum("mc,mc->", d, d) if unit else np.einsum("mc,mc,mc->", w, d, d)) / dof
+    s2 = residual_variance(problem.loss, target, base, w, dof)
     return _judge(names, kinds, info / max(s2, 1e-300), params)
 
 
@@ -237,9 +234,7 @@ def _coefficients_only(problem, params: dict, pred) -> dict | None:
         return {}
     names = [p.name if c == 1 else f"{p.name}[{problem.data.channels[i]}]" for i in inside]
     unit = loss.name == "l2" and ctx.weights is None
-    w, target = (None, ctx.y) if unit else loss.linearised(ctx.y, ctx)  # reads its shape
-    if not unit and np.shape(w) != ctx.y.shape:
-        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], ctx.y.shape)
+    w, target = linearised(loss, ctx.y, ctx, unit)  # a linear loss's: reads its shape
     column = _design(problem, params, problem.geometry).columns[model.coefficients.index(p.name)]
     column = np.asarray(column, float)
     column = column if column.ndim == 2 else column[..., None]  # times sqrt_w: its values
@@ -247,10 +242,7 @@ def _coefficients_only(problem, params: dict, pred) -> dict | None:
     info = coefficient_diagonal([source], [(0, i) for i in inside], None if unit else np.sqrt(w))
     if info is None:
         return None
-    s2 = 1.0  # with sigma; else the residual variance
-    if not loss.needs_sigma:
-        d, dof = np.subtract(target, pred), max(float(ctx.y.size - len(names)), 1.0)
-        s2 = float(np.einsum("mc,mc->", d, d) if unit else np.einsum("mc,mc,mc->", w, d, d)) / dof
+    s2 = residual_variance(loss, target, pred, w, max(float(ctx.y.size - len(names)), 1.0))
     return _judge(names, ["coef"] * len(names), info / max(s2, 1e-300), params)
 
 

@@ -38,7 +38,9 @@ __all__ = [
     "coefficient_diagonal",
     "inverse_diagonal",
     "judge",
+    "linearised",
     "null_and_variance",
+    "residual_variance",
 ]
 
 #: :func:`inverse_diagonal` answers only when the smallest eigenvalue is proved to be at
@@ -261,3 +263,26 @@ def _coefficients_dead(values: list, rtol: float) -> list | None:
     if live and (not math.isfinite(total) or total * CERTIFY_MARGIN * rtol * live > 1.0):
         return None
     return dead
+
+
+def linearised(loss, ref: np.ndarray, ctx, unit: bool):
+    """The identifiability check's weights (None for ``unit``: l2 without weights) and
+    target of ``loss`` linearised at ``ref``, the weights in ``ref``'s shape (a
+    broadcast only where they are not: 3 us for nothing)."""
+    if unit:
+        return None, ctx.y
+    w, target = loss.linearised(ref, ctx)
+    if np.shape(w) != ref.shape:
+        w = np.broadcast_to(w if np.ndim(w) == 2 else np.asarray(w)[:, None], ref.shape)
+    return w, target
+
+
+def residual_variance(loss, target: np.ndarray, base, w, dof: float) -> float:
+    """The identifiability check's scale of the information: 1 with sigma, else the
+    residual variance of the fit's values ``base`` about ``target`` (weighted by ``w``
+    unless None) over ``dof``."""
+    if loss.needs_sigma:
+        return 1.0
+    d = np.subtract(target, base)
+    total = np.einsum("mc,mc->", d, d) if w is None else np.einsum("mc,mc,mc->", w, d, d)
+    return float(total) / dof

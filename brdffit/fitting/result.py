@@ -15,7 +15,7 @@ from ..words import plural
 from .losses import LOSSES, LossContext
 from .sums import loss_sums
 
-__all__ = ["FAR", "FitResult", "beyond_reach", "metrics_of", "noise_failed"]
+__all__ = ["FAR", "TYPICAL", "FitResult", "beyond_reach", "metrics_of", "noise_failed"]
 
 
 @dataclass(frozen=True)
