@@ -23,21 +23,23 @@ RIDGE = 1e-12
 def weighted_sums(target, cols, offset, w_count: int):
     """``(gram (W, C, K, K), rhs (W, C, K), yy (W, C))`` of the columns and offset of
     :func:`~brdffit.posterior.design.assemble` for ``w_count`` walkers."""
+    return _sums(target, cols, offset, w_count)[:3]
+
+
+def _sums(target, cols, offset, w_count: int):
+    """:func:`weighted_sums`, and whether the compiled pass formed them."""
     m, c = target.y.shape
-    if _compiled(cols, offset, m * c):
-        return _compiled_sums(target, cols, offset, w_count)
-    return _numpy_sums(target, cols, offset, w_count)
+    compiled = _compiled(cols, offset, m * c)
+    sums = _compiled_sums if compiled else _numpy_sums
+    return (*sums(target, cols, offset, w_count), compiled)
 
 
 def statistics(target, cols, offset, w_count: int):
     """``log |det G|`` (W, C) of the Gram matrices with their ridge, their inverses
     (W, C, K, K), the least-squares coefficients (W, C, K), the residual sums of
     squares (W, C) and a mask (W,) of walkers whose design is not finite."""
-    m, c = target.y.shape
-    compiled = _compiled(cols, offset, m * c)
-    sums = _compiled_sums if compiled else _numpy_sums
-    gram, rhs, yy = sums(target, cols, offset, w_count)
-    k = len(cols)
+    gram, rhs, yy, compiled = _sums(target, cols, offset, w_count)
+    k, c = len(cols), target.y.shape[1]
     if k == 0:
         rss = np.maximum(yy, 0.0)
         return np.zeros((w_count, c)), gram, rhs, rss, ~np.isfinite(rss).all(axis=1)
